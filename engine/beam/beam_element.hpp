@@ -1,0 +1,81 @@
+#pragma once
+// Geometrically exact (Simo-Reissner) 3-node beam element: quadratic Lagrange shape functions,
+// two Gauss points (reduced integration), 6 DOF per node (displacement u and the Rodrigues
+// parameters alpha of the rotation increment since the last converged step), updated-Lagrangian
+// rotations as in Giraffe's Beam_1 (formulation.md §2).
+//
+// At a Gauss point, with Q = Q(alpha) Q_n the section rotation and kappa_n the spatial curvature of
+// the last converged step (Pimenta's curvature update kappa = Xi(alpha) alpha' + Q(alpha) kappa_n):
+//   Gamma = Q^T x' - Gamma_0                        material strain (shear 1, shear 2, axial)
+//   K     = Q^T kappa = Q_n^T (Xi(alpha)^T alpha' + kappa_n)   material curvature change
+// with Q(alpha)^T Xi(alpha) = Xi(alpha)^T. The strain energy per reference length is
+//   e = 1/2 Gamma . C_N Gamma + 1/2 K . C_M K,  C_N = diag(GA1, GA2, EA),  C_M = [EI1 EI12 0; EI12 EI2 0; 0 0 GJ]
+// The element residual is its gradient with respect to (u_i, alpha_i) and the tangent its Hessian,
+// which is symmetric because alpha enters additively within a step. A rigid motion leaves Gamma and
+// K unchanged, so it produces no internal force.
+
+#include <Eigen/Core>
+#include <array>
+
+namespace yarnsim {
+
+struct Section;
+
+/// Element DOF vector layout: node 0 (u, alpha), node 1 (u, alpha), node 2 (u, alpha).
+using ElementVector = Eigen::Matrix<double, 18, 1>;
+using ElementMatrix = Eigen::Matrix<double, 18, 18>;
+
+/// Constants of one element, fixed at construction from the reference geometry.
+struct BeamReference {
+  /// N_i at the two Gauss points: shape(i, g).
+  Eigen::Matrix<double, 3, 2> shape;
+  /// dN_i/dS at the two Gauss points, 1/m (S: reference arc length).
+  Eigen::Matrix<double, 3, 2> shape_derivative;
+  /// Gauss weight times dS/dxi, m.
+  Eigen::Vector2d weight;
+  /// Section stiffnesses, material frame.
+  Eigen::Matrix3d C_N, C_M;
+  /// Reference strain Q_0^T X' at each Gauss point (material frame; (0, 0, 1) for a straight beam).
+  std::array<Eigen::Vector3d, 2> gamma0;
+  /// Reference section rotation at each Gauss point.
+  std::array<Eigen::Matrix3d, 2> Q0;
+};
+
+/// History of a Gauss point: values at the last converged step.
+struct GaussState {
+  Eigen::Matrix3d Q_n = Eigen::Matrix3d::Identity(); ///< section rotation
+  Eigen::Vector3d kappa_n = Eigen::Vector3d::Zero();  ///< spatial curvature change, 1/m
+};
+
+/// Current nodal values of one element.
+struct BeamNodalValues {
+  Eigen::Matrix3d x;     ///< current positions, columns = nodes, m
+  Eigen::Matrix3d alpha; ///< Rodrigues parameters of the step's rotation increment, columns = nodes
+};
+
+/// Builds the element constants. X: reference node positions (columns: first, middle, last), m;
+/// reference_vector: section axis 1 direction. Throws std::invalid_argument on a degenerate element.
+BeamReference make_beam_reference(const Eigen::Matrix3d& X, const Eigen::Vector3d& reference_vector,
+                                  const Section& section);
+
+/// Internal force vector (gradient of the strain energy), 18 entries, N and N m conjugate to
+/// (u, alpha). If tangent is non-null it receives the consistent tangent (Hessian), 18 x 18.
+void beam_internal_force(const BeamReference& ref, const std::array<GaussState, 2>& history,
+                         const BeamNodalValues& values, ElementVector& force, ElementMatrix* tangent);
+
+/// Strain energy of the element, J.
+double beam_strain_energy(const BeamReference& ref, const std::array<GaussState, 2>& history,
+                          const BeamNodalValues& values);
+
+/// Section resultants in the material frame at the two Gauss points: rows 0-2 forces (N),
+/// rows 3-5 moments (N m), columns = Gauss points.
+Eigen::Matrix<double, 6, 2> beam_section_resultants(const BeamReference& ref,
+                                                    const std::array<GaussState, 2>& history,
+                                                    const BeamNodalValues& values);
+
+/// The Gauss point history after the current values are accepted as converged.
+std::array<GaussState, 2> beam_committed_history(const BeamReference& ref,
+                                                 const std::array<GaussState, 2>& history,
+                                                 const BeamNodalValues& values);
+
+} // namespace yarnsim

@@ -1,0 +1,153 @@
+#pragma once
+// The resolved model: everything a run needs, in SI units, with every cross-reference turned into
+// an index. Built from a TOML deck (engine/model/deck.hpp) or programmatically (textile builder).
+
+#include <Eigen/Core>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace yarnsim {
+
+/// Piecewise-linear function of time given by (time, value) rows; constant beyond both ends.
+struct TimeTable {
+  std::vector<double> time;  ///< s, strictly increasing
+  std::vector<double> value; ///< same length as time
+
+  /// Value at time t (s).
+  double at(double t) const;
+  /// A table that is 0 at t = 0 and 1 at t = t_end, linear in between.
+  static TimeTable ramp(double t_end);
+  static TimeTable constant(double v);
+};
+
+/// Linear elastic isotropic material.
+struct Material {
+  std::string name;
+  double young = 0;   ///< E, Pa
+  double shear = 0;   ///< G, Pa
+  double density = 0; ///< kg/m^3
+};
+
+/// Shape of a section used for stiffness and contact geometry.
+enum class SectionShape { General, Circle, Ellipse, SuperEllipse };
+
+/// Section stiffnesses in the section's principal frame (axes 1, 2 in the section plane, 3 along
+/// the beam axis). Resultants n_r = diag(GA1, GA2, EA) eta, m_r = D_m kappa (formulation.md §2).
+struct Section {
+  std::string name;
+  double EA = 0;   ///< N
+  double GA1 = 0;  ///< N, shear along axis 1 (includes the shear factor)
+  double GA2 = 0;  ///< N
+  double EI1 = 0;  ///< N m^2, bending about axis 1
+  double EI2 = 0;  ///< N m^2, bending about axis 2
+  double EI12 = 0; ///< N m^2, product term
+  double GJ = 0;   ///< N m^2, torsion
+  double rhoA = 0; ///< kg/m, mass per length
+  /// Rotary inertia per length in the section frame, kg m: diag(rho I1, rho I2, rho (I1 + I2)).
+  Eigen::Vector3d rhoJ = Eigen::Vector3d::Zero();
+
+  SectionShape shape = SectionShape::General;
+  double a = 0;        ///< semi-axis along section axis 1, m (circle: radius)
+  double b = 0;        ///< semi-axis along section axis 2, m
+  double exponent = 2; ///< super-ellipse exponent m (2 = ellipse)
+};
+
+/// A 3-node beam element; nodes in order along the axis: first, middle, last.
+struct BeamElement {
+  std::array<int, 3> nodes{};
+  int section = 0;
+  /// Direction of section axis 1 in the reference configuration (projected normal to the axis).
+  Eigen::Vector3d reference_vector = Eigen::Vector3d::UnitY();
+};
+
+struct NodeSet {
+  std::string name;
+  std::vector<int> nodes; ///< indices into Model::nodes, sorted, unique
+};
+
+/// Degrees of freedom of a node, in this order: translations then rotations.
+enum Dof : int { Ux = 0, Uy, Uz, Rx, Ry, Rz };
+inline constexpr int kDofsPerNode = 6;
+
+/// DOFs held fixed (zero displacement increment) on every node of a set.
+struct Constraint {
+  int node_set = 0;
+  std::array<bool, 6> fixed{};
+};
+
+/// Prescribed motion of every node of a set as time tables. Displacements per component (m,
+/// relative to the reference position); a rotation as a total rotation vector (rad) applied to the
+/// reference triad, all three components together. A prescribed component is also a constraint.
+struct PrescribedMotion {
+  int node_set = 0;
+  std::array<std::optional<TimeTable>, 3> displacement;
+  std::optional<std::array<TimeTable, 3>> rotation;
+};
+
+/// Nodal load on every node of a set: force (N, dead) and moment (N m) times a time table.
+/// A follower moment rotates with the node (given in the node's reference triad).
+struct NodalLoad {
+  int node_set = 0;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();
+  bool follower_moment = false;
+  TimeTable factor = TimeTable::constant(1.0);
+};
+
+enum class StepType { Static, Dynamic, Explicit };
+
+/// One solution step; time runs on from the end of the previous step.
+struct SolutionStep {
+  StepType type = StepType::Static;
+  double end_time = 1;  ///< s, absolute
+  double dt_initial = 0.1;
+  double dt_min = 1e-6;
+  double dt_max = 0.1;
+  int max_iterations = 20;
+  double tol_force = 1e-4;     ///< residual norm relative to the reference load norm
+  double tol_increment = 1e-4; ///< increment norm relative to the step's displacement scale
+  double newmark_beta = 0.3;
+  double newmark_gamma = 0.5;
+  double rayleigh_mass = 0;      ///< C = a M + b K: a, 1/s
+  double rayleigh_stiffness = 0; ///< b, s
+  int output_every = 1;          ///< write results every N completed increments
+};
+
+enum class MonitorType { Node, NodeSet, Element };
+
+/// A quantity written to <name>.csv every completed increment.
+struct Monitor {
+  std::string name;
+  MonitorType type = MonitorType::Node;
+  int target = 0; ///< node index, node-set index or element index
+};
+
+struct Model {
+  std::string title;
+  std::vector<Eigen::Vector3d> nodes; ///< reference positions, m
+  std::vector<Material> materials;
+  std::vector<Section> sections;
+  std::vector<BeamElement> elements;
+  std::vector<NodeSet> node_sets;
+  std::vector<Constraint> constraints;
+  std::vector<PrescribedMotion> prescribed;
+  std::vector<NodalLoad> loads;
+  std::vector<SolutionStep> steps;
+  std::vector<Monitor> monitors;
+  /// Optional user labels of nodes (deck ids); empty means node i is labelled i + 1.
+  std::vector<long> node_labels;
+
+  long node_label(int i) const { return node_labels.empty() ? i + 1 : node_labels[i]; }
+  int find_node_set(const std::string& name) const; ///< -1 when absent
+};
+
+/// Section stiffnesses from a shape and a material (formulation.md §1). Reduction factors
+/// multiply the moments of inertia about axis 1 and axis 2 (the paper uses 0.1 on the lower one);
+/// shear_factor is kappa in GA = kappa G A.
+Section section_from_shape(std::string name, SectionShape shape, double a, double b,
+                           double exponent, const Material& material, double reduce_I1,
+                           double reduce_I2, double shear_factor);
+
+} // namespace yarnsim
