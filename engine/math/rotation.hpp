@@ -49,7 +49,7 @@ Mat3<T> rodrigues_xi(const Vec3<T>& alpha) {
 /// Rotation vector theta e of the rotation with Rodrigues parameters alpha (theta < pi).
 template <typename T>
 Vec3<T> rotation_vector_of_rodrigues(const Vec3<T>& alpha) {
-  using std::atan;
+  using std::asin;
   using std::sqrt;
   const T s2 = alpha.dot(alpha);
   // theta / |alpha| = 2 atan(|alpha| / 2) / |alpha|; series near zero keeps derivatives finite.
@@ -58,7 +58,10 @@ Vec3<T> rotation_vector_of_rodrigues(const Vec3<T>& alpha) {
     factor = T(1) - s2 / T(12) + s2 * s2 / T(80) - s2 * s2 * s2 / T(448);
   else {
     const T s = sqrt(s2);
-    factor = T(2) * atan(s / T(2)) / s;
+    const T half = s / T(2);
+    // atan(h) = asin(h / sqrt(1 + h^2)): Eigen's AutoDiffScalar has asin but no atan.
+    const T angle = asin(half / sqrt(T(1) + half * half));
+    factor = T(2) * angle / s;
   }
   return factor * alpha;
 }

@@ -84,6 +84,7 @@ TEST(BeamElement, TangentMatchesFiniteDifferencesAtRandomStatesBeyondPi) {
                     (2 * h);
     const double err = (K - K_fd).norm() / K_fd.norm();
     EXPECT_LT(err, 1e-6) << "trial " << trial;
+    if (std::getenv("YARNSIM_DEBUG")) std::printf("trial %d err %.3e\n", trial, err);
     // The tangent is a Hessian of the strain energy, hence symmetric.
     EXPECT_LT((K - K.transpose()).norm() / K.norm(), 1e-12);
   }

@@ -1,0 +1,181 @@
+#include "engine/assembly/assembler.hpp"
+
+#include "engine/model/model.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace yarnsim {
+
+namespace {
+
+/// Greedy colouring of elements so that no two elements of a colour share a node.
+std::vector<std::vector<int>> colour_elements(const std::vector<std::array<int, 3>>& conn,
+                                              int n_nodes) {
+  std::vector<std::uint64_t> used(n_nodes, 0); // colours used around each node
+  std::vector<std::vector<int>> colours;
+  for (int e = 0; e < static_cast<int>(conn.size()); ++e) {
+    std::uint64_t taken = 0;
+    for (int n : conn[e])
+      taken |= used[n];
+    int c = 0;
+    while (taken & (std::uint64_t{1} << c))
+      ++c;
+    if (c >= 64)
+      throw std::runtime_error("element colouring needs more than 64 colours");
+    if (c >= static_cast<int>(colours.size()))
+      colours.resize(c + 1);
+    colours[c].push_back(e);
+    for (int n : conn[e])
+      used[n] |= std::uint64_t{1} << c;
+  }
+  return colours;
+}
+
+/// Index into valuePtr of entry (row, col), -1 if not in the pattern.
+int slot_of(const SparseMatrix& m, int row, int col) {
+  if (row < 0 || col < 0)
+    return -1;
+  const int* begin = m.innerIndexPtr() + m.outerIndexPtr()[col];
+  const int* end = m.innerIndexPtr() + m.outerIndexPtr()[col + 1];
+  const int* hit = std::lower_bound(begin, end, row);
+  return (hit != end && *hit == row) ? static_cast<int>(hit - m.innerIndexPtr()) : -1;
+}
+
+} // namespace
+
+Assembler::Assembler(const Model& model, const std::vector<char>& constrained)
+    : n_nodes_(static_cast<int>(model.nodes.size())) {
+  if (static_cast<int>(constrained.size()) != kDofsPerNode * n_nodes_)
+    throw std::invalid_argument("Assembler: constraint mask has the wrong size");
+  equation_.assign(constrained.size(), -1);
+  for (std::size_t d = 0; d < constrained.size(); ++d)
+    if (!constrained[d])
+      equation_[d] = n_equations_++;
+
+  connectivity_.reserve(model.elements.size());
+  reference_.reserve(model.elements.size());
+  for (const BeamElement& el : model.elements) {
+    Eigen::Matrix3d X;
+    for (int i = 0; i < 3; ++i)
+      X.col(i) = model.nodes[el.nodes[i]];
+    connectivity_.push_back(el.nodes);
+    reference_.push_back(make_beam_reference(X, el.reference_vector, model.sections[el.section]));
+  }
+  colours_ = colour_elements(connectivity_, n_nodes_);
+
+  // Pattern: every element's 18 x 18 block and every node's 6 x 6 block, free equations only.
+  std::vector<std::pair<int, int>> entries; // (col, row)
+  entries.reserve(connectivity_.size() * 324 + static_cast<std::size_t>(n_nodes_) * 36);
+  auto add_group = [&](const int* nodes, int count) {
+    for (int a = 0; a < count; ++a)
+      for (int i = 0; i < 6; ++i) {
+        const int col = equation_[6 * nodes[a] + i];
+        if (col < 0)
+          continue;
+        for (int b = 0; b < count; ++b)
+          for (int j = 0; j < 6; ++j) {
+            const int row = equation_[6 * nodes[b] + j];
+            if (row >= 0)
+              entries.emplace_back(col, row);
+          }
+      }
+  };
+  for (const auto& c : connectivity_)
+    add_group(c.data(), 3);
+  for (int n = 0; n < n_nodes_; ++n)
+    add_group(&n, 1);
+  std::sort(entries.begin(), entries.end());
+  entries.erase(std::unique(entries.begin(), entries.end()), entries.end());
+
+  matrix_.resize(n_equations_, n_equations_);
+  matrix_.resizeNonZeros(static_cast<Eigen::Index>(entries.size()));
+  int* outer = matrix_.outerIndexPtr();
+  std::fill(outer, outer + n_equations_ + 1, 0);
+  for (std::size_t k = 0; k < entries.size(); ++k) {
+    ++outer[entries[k].first + 1];
+    matrix_.innerIndexPtr()[k] = entries[k].second;
+  }
+  for (int c = 0; c < n_equations_; ++c)
+    outer[c + 1] += outer[c];
+  std::fill(matrix_.valuePtr(), matrix_.valuePtr() + entries.size(), 0.0);
+
+  element_slots_.resize(connectivity_.size());
+  for (std::size_t e = 0; e < connectivity_.size(); ++e)
+    for (int i = 0; i < 18; ++i)
+      for (int j = 0; j < 18; ++j)
+        element_slots_[e][18 * i + j] =
+            slot_of(matrix_, equation_[6 * connectivity_[e][i / 6] + i % 6],
+                    equation_[6 * connectivity_[e][j / 6] + j % 6]);
+  node_slots_.resize(n_nodes_);
+  for (int n = 0; n < n_nodes_; ++n)
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j)
+        node_slots_[n][6 * i + j] = slot_of(matrix_, equation_[6 * n + i], equation_[6 * n + j]);
+}
+
+void Assembler::zero_matrix() {
+  std::fill(matrix_.valuePtr(), matrix_.valuePtr() + matrix_.nonZeros(), 0.0);
+}
+
+BeamNodalValues Assembler::nodal_values(const State& state, int e) const {
+  BeamNodalValues v;
+  for (int i = 0; i < 3; ++i) {
+    v.x.col(i) = state.x.col(connectivity_[e][i]);
+    v.alpha.col(i) = state.alpha.col(connectivity_[e][i]);
+  }
+  return v;
+}
+
+void Assembler::add_beams(const State& state, Eigen::VectorXd& residual, bool want_tangent,
+                          const StiffnessDamping& damping) {
+  const bool damped = damping.b != 0.0 && damping.velocity != nullptr;
+  const bool need_K = want_tangent || damped;
+  double* values = matrix_.valuePtr();
+  const double scale = 1.0 + (damped ? damping.b * damping.a4 : 0.0);
+  for (const std::vector<int>& colour : colours_) {
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, colour.size(), 32),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+          ElementVector f;
+          ElementMatrix K;
+          for (std::size_t k = range.begin(); k != range.end(); ++k) {
+            const int e = colour[k];
+            const BeamNodalValues v = nodal_values(state, e);
+            beam_internal_force(reference_[e], state.gauss[e], v, f, need_K ? &K : nullptr);
+            if (damped) {
+              ElementVector ve;
+              for (int i = 0; i < 3; ++i)
+                ve.segment<6>(6 * i) = damping.velocity->segment<6>(6 * connectivity_[e][i]);
+              f += damping.b * (K * ve);
+            }
+            for (int i = 0; i < 3; ++i)
+              residual.segment<6>(6 * connectivity_[e][i]) += f.segment<6>(6 * i);
+            if (!want_tangent)
+              continue;
+            const auto& slots = element_slots_[e];
+            for (int j = 0; j < 18; ++j)
+              for (int i = 0; i < 18; ++i) {
+                const int s = slots[18 * i + j];
+                if (s >= 0)
+                  values[s] += scale * K(i, j);
+              }
+          }
+        });
+  }
+}
+
+void Assembler::add_node_block(int node, int row_offset, int col_offset,
+                               const Eigen::Matrix3d& block) {
+  double* values = matrix_.valuePtr();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const int s = node_slots_[node][6 * (row_offset + i) + col_offset + j];
+      if (s >= 0)
+        values[s] += block(i, j);
+    }
+}
+
+} // namespace yarnsim

@@ -1,0 +1,66 @@
+#pragma once
+// Assembly of the beam elements into a residual over all DOFs and a tangent over the free
+// equations, through a sparsity pattern built once. Elements are split into colours that share no
+// node (even and odd elements along a yarn), so each colour is scattered in parallel without locks
+// and every matrix entry is summed in the same order on any thread count.
+
+#include "engine/beam/beam_element.hpp"
+#include "engine/solver/linear_solver.hpp"
+#include "engine/state/state.hpp"
+
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+namespace yarnsim {
+
+struct Model;
+
+/// Stiffness-proportional Rayleigh damping on the elements: f_d = b K_e v_e, tangent b a4 K_e.
+struct StiffnessDamping {
+  double b = 0;                              ///< s
+  double a4 = 0;                             ///< Newmark d(velocity)/d(displacement), 1/s
+  const Eigen::VectorXd* velocity = nullptr; ///< 6 n_nodes: v (m/s) and spatial omega (rad/s)
+};
+
+class Assembler {
+public:
+  /// constrained: per global DOF (6 n_nodes), true when its increment is prescribed.
+  Assembler(const Model& model, const std::vector<char>& constrained);
+
+  int n_nodes() const { return n_nodes_; }
+  int n_equations() const { return n_equations_; }
+  /// Equation of a global DOF (6 node + dof), -1 when constrained.
+  int equation(int dof) const { return equation_[dof]; }
+  const std::vector<int>& equations() const { return equation_; }
+  const std::vector<BeamReference>& references() const { return reference_; }
+  const std::vector<std::vector<int>>& colours() const { return colours_; }
+
+  /// The tangent over the free equations with the fixed pattern; setZero() keeps the pattern.
+  SparseMatrix& matrix() { return matrix_; }
+  void zero_matrix();
+
+  /// Adds the beams' internal forces to residual (6 n_nodes) and, if want_tangent, their tangents
+  /// to matrix(). Runs the colours in order, each in parallel.
+  void add_beams(const State& state, Eigen::VectorXd& residual, bool want_tangent,
+                 const StiffnessDamping& damping);
+
+  /// Adds a 3 x 3 block to the tangent at node rows/cols (offset 0: translations, 3: rotations).
+  void add_node_block(int node, int row_offset, int col_offset, const Eigen::Matrix3d& block);
+
+  /// Current nodal values of element e.
+  BeamNodalValues nodal_values(const State& state, int e) const;
+
+private:
+  int n_nodes_ = 0;
+  int n_equations_ = 0;
+  std::vector<int> equation_;
+  std::vector<std::array<int, 3>> connectivity_;
+  std::vector<BeamReference> reference_;
+  std::vector<std::vector<int>> colours_;
+  SparseMatrix matrix_;
+  std::vector<std::array<int, 18 * 18>> element_slots_; ///< value index per (i, j), -1 if none
+  std::vector<std::array<int, 36>> node_slots_;         ///< value index per node (i, j)
+};
+
+} // namespace yarnsim

@@ -1,0 +1,35 @@
+#pragma once
+// Time histories as CSV (monitors, run statistics): a header naming each column with its unit,
+// then one row of numbers per call, flushed at once so a crashed or killed run loses nothing.
+
+#include <filesystem>
+#include <fstream>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace yarnsim::output {
+
+class CsvWriter {
+public:
+  /// Creates (truncating) file, and its parent directory if needed, and writes the header, e.g.
+  /// {"time [s]", "x [m]"} -> "time [s],x [m]". Throws std::invalid_argument for no columns or a
+  /// column containing a comma, quote or line break; std::runtime_error if the file cannot be
+  /// written.
+  CsvWriter(const std::filesystem::path& file, std::vector<std::string> columns_with_units);
+
+  /// Appends one row (shortest decimal text that reads back to the same double) and flushes it
+  /// to the operating system. Throws std::invalid_argument if values.size() differs from the
+  /// number of columns, std::runtime_error if the write fails.
+  void row(std::span<const double> values);
+
+  const std::filesystem::path& path() const { return path_; }
+  std::size_t columns() const { return columns_; }
+
+private:
+  std::filesystem::path path_;
+  std::size_t columns_ = 0;
+  std::ofstream out_;
+};
+
+} // namespace yarnsim::output

@@ -1,0 +1,40 @@
+#pragma once
+// Sparse direct solvers behind one interface: the pattern is analysed (fill-reducing METIS
+// ordering) once and refactorised while it does not change (engineering-notes.md, "Sparse direct
+// solvers").
+
+#include <Eigen/SparseCore>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+namespace yarnsim {
+
+using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+
+/// The factorisation failed (singular or non-finite matrix).
+class LinearSolverError : public std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+enum class LinearSolverKind {
+  LU,           ///< LU of the full (non-symmetric) tangent, Eigen SparseLU + METIS
+  LDLTSymmetric ///< LDL^T of the symmetric part (A + A^T) / 2, Eigen SimplicialLDLT + METIS
+};
+
+class LinearSolver {
+public:
+  virtual ~LinearSolver() = default;
+  /// Symbolic analysis of A's pattern; call again only when the pattern changes.
+  virtual void analyze(const SparseMatrix& A) = 0;
+  /// Numeric factorisation of A (same pattern as analysed). Throws LinearSolverError.
+  virtual void factorize(const SparseMatrix& A) = 0;
+  /// x = A^-1 b with the last factorisation.
+  virtual Eigen::VectorXd solve(const Eigen::VectorXd& b) = 0;
+  virtual std::string name() const = 0;
+};
+
+std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind);
+LinearSolverKind linear_solver_kind_from(const std::string& name); ///< "lu" or "ldlt"
+
+} // namespace yarnsim

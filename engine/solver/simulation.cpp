@@ -1,0 +1,499 @@
+#include "engine/solver/simulation.hpp"
+
+#include "engine/beam/nodal_terms.hpp"
+#include "engine/math/rotation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <numbers>
+#include <cstdlib>
+
+namespace yarnsim {
+
+namespace {
+
+/// Unwrapped rotation vector: the representative of rotation R closest to the previous value.
+Eigen::Vector3d unwrap_rotation(const Eigen::Matrix3d& R, const Eigen::Vector3d& previous) {
+  const Eigen::Vector3d v = rotation_vector(R);
+  const double angle = v.norm();
+  if (angle < 1e-12)
+    return previous.norm() < std::numbers::pi ? v : previous; // identity: keep full turns as they were
+  const Eigen::Vector3d e = v / angle;
+  const double k = std::round((previous.dot(e) - angle) / (2 * std::numbers::pi));
+  return (angle + 2 * std::numbers::pi * k) * e;
+}
+
+const char* dof_name(int c) {
+  static const char* names[] = {"ux", "uy", "uz", "rx", "ry", "rz"};
+  return names[c];
+}
+
+} // namespace
+
+Simulation::Simulation(const Model& model, SimulationOptions options)
+    : model_(model), options_(options) {
+  const int n = static_cast<int>(model.nodes.size());
+  if (n == 0 || model.elements.empty())
+    throw std::invalid_argument("the model has no nodes or no elements");
+  if (model.steps.empty())
+    throw std::invalid_argument("the model has no solution step");
+
+  // Constraints and prescribed motions fix DOFs for the whole run.
+  std::vector<char> constrained(kDofsPerNode * n, 0);
+  for (const Constraint& c : model.constraints)
+    for (int node : model.node_sets[c.node_set].nodes)
+      for (int d = 0; d < 6; ++d)
+        if (c.fixed[d])
+          constrained[6 * node + d] = 1;
+  for (const PrescribedMotion& p : model.prescribed)
+    for (int node : model.node_sets[p.node_set].nodes) {
+      for (int c = 0; c < 3; ++c)
+        if (p.displacement[c]) {
+          constrained[6 * node + c] = 1;
+          prescribed_u_.push_back({node, c, &*p.displacement[c]});
+        }
+      if (p.rotation) {
+        for (int c = 3; c < 6; ++c)
+          constrained[6 * node + c] = 1;
+        prescribed_r_.push_back({node, &*p.rotation});
+      }
+    }
+  assembler_ = std::make_unique<Assembler>(model, constrained);
+  solver_ = make_linear_solver(options.linear_solver);
+  solver_name_ = solver_->name();
+
+  // Reference triads, lumped mass and rotary inertia (1/6, 2/3, 1/6 of each element).
+  Q0_.assign(n, Eigen::Matrix3d::Identity());
+  std::vector<char> has_triad(n, 0);
+  mass_ = Eigen::VectorXd::Zero(n);
+  rotary_inertia_ = Eigen::Matrix3Xd::Zero(3, n);
+  const double lump[3] = {1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0};
+  const double xi_node[3] = {-1.0, 0.0, 1.0};
+  double max_axial = 0, max_bending = 0, min_length = 1e300;
+  Eigen::AlignedBox3d box;
+  for (std::size_t e = 0; e < model.elements.size(); ++e) {
+    const BeamElement& el = model.elements[e];
+    const Section& s = model.sections[el.section];
+    const double length = assembler_->references()[e].weight.sum();
+    Eigen::Matrix3d X;
+    for (int i = 0; i < 3; ++i)
+      X.col(i) = model.nodes[el.nodes[i]];
+    for (int i = 0; i < 3; ++i) {
+      const int node = el.nodes[i];
+      mass_(node) += s.rhoA * length * lump[i];
+      rotary_inertia_.col(node) += s.rhoJ * length * lump[i];
+      if (!has_triad[node]) {
+        const double xi = xi_node[i];
+        const Eigen::Vector3d dN(xi - 0.5, -2.0 * xi, xi + 0.5);
+        Q0_[node] = triad_from(X * dN, el.reference_vector);
+        has_triad[node] = 1;
+      }
+      box.extend(X.col(i));
+    }
+    max_axial = std::max({max_axial, s.EA, s.GA1, s.GA2});
+    max_bending = std::max({max_bending, s.EI1, s.EI2, s.GJ});
+    min_length = std::min(min_length, length);
+  }
+  // Round-off levels of the residual: strains come from differences of positions over an element,
+  // so the noise grows with size / element length. Residuals below these count as zero.
+  const double ratio = std::max(1.0, box.diagonal().norm() / min_length);
+  floor_force_ = 1e-12 * max_axial * ratio;
+  floor_moment_ = 1e-12 * max_bending / min_length * ratio;
+  floor_length_ = 1e-12 * std::max(box.diagonal().norm(), min_length);
+  min_length_ = min_length;
+
+  state_.x.resize(3, n);
+  for (int i = 0; i < n; ++i)
+    state_.x.col(i) = model.nodes[i];
+  state_.x_n = state_.x;
+  state_.alpha = Eigen::Matrix3Xd::Zero(3, n);
+  state_.Q_n = Q0_;
+  state_.v_n = state_.a_n = state_.W_n = state_.A_n = Eigen::Matrix3Xd::Zero(3, n);
+  state_.rotation_n = Eigen::Matrix3Xd::Zero(3, n);
+  state_.gauss.resize(model.elements.size());
+  for (std::size_t e = 0; e < model.elements.size(); ++e)
+    for (int g = 0; g < 2; ++g)
+      state_.gauss[e][g] = GaussState{assembler_->references()[e].Q0[g], Eigen::Vector3d::Zero()};
+  reactions_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n);
+  load_n_ = external_loads(0.0);
+}
+
+Simulation::~Simulation() = default;
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> Simulation::external_loads(double t) const {
+  Eigen::Matrix<double, 6, Eigen::Dynamic> loads =
+      Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, state_.n_nodes());
+  for (const NodalLoad& l : model_.loads) {
+    const double f = l.factor.at(t);
+    for (int node : model_.node_sets[l.node_set].nodes) {
+      loads.col(node).head<3>() += f * l.force;
+      if (!l.follower_moment)
+        loads.col(node).tail<3>() += f * l.moment;
+      else // current spatial direction of the follower moment
+        loads.col(node).tail<3>() += f * (rodrigues_rotation<double>(state_.alpha.col(node)) *
+                                          state_.Q_n[node] * Q0_[node].transpose() * l.moment);
+    }
+  }
+  return loads;
+}
+
+void Simulation::apply_prescribed(double t_new) {
+  for (const PrescribedDisplacement& p : prescribed_u_)
+    state_.x(p.component, p.node) = model_.nodes[p.node](p.component) + p.table->at(t_new);
+  for (const PrescribedRotation& p : prescribed_r_) {
+    const Eigen::Vector3d theta((*p.tables)[0].at(t_new), (*p.tables)[1].at(t_new),
+                                (*p.tables)[2].at(t_new));
+    const Eigen::Matrix3d target = rotation_matrix(theta) * Q0_[p.node];
+    state_.alpha.col(p.node) = rodrigues_of(target * state_.Q_n[p.node].transpose());
+  }
+}
+
+std::string Simulation::attempt(const SolutionStep& step, double t_new, double dt,
+                                IncrementReport& report) {
+  const int n = state_.n_nodes();
+  const bool dynamic = step.type == StepType::Dynamic;
+  const NewmarkCoefficients nm(step.newmark_beta, step.newmark_gamma, dt);
+
+  // Predictor: the converged state, then the prescribed values at t_new.
+  state_.x = state_.x_n;
+  state_.alpha.setZero();
+  apply_prescribed(t_new);
+
+  Eigen::VectorXd residual(6 * n), damping_velocity;
+  Eigen::VectorXd rhs(assembler_->n_equations());
+  const std::vector<int>& eq = assembler_->equations();
+  report.residual_history.clear();
+  report.energy_history.clear();
+  double last_du = 0, last_da = 0;
+  int worst_dof = -1;
+  for (int iter = 0; iter <= step.max_iterations; ++iter) {
+    residual.setZero();
+    assembler_->zero_matrix();
+    StiffnessDamping damping;
+    if (dynamic && step.rayleigh_stiffness != 0.0) {
+      damping_velocity.resize(6 * n);
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
+        damping_velocity.segment<3>(6 * i) =
+            nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
+        Eigen::Vector3d W, A;
+        newmark_angular(nm, {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)},
+                        state_.alpha.col(i), W, A);
+        damping_velocity.segment<3>(6 * i + 3) =
+            rodrigues_rotation<double>(state_.alpha.col(i)) * state_.Q_n[i] * W;
+      }
+      damping = {step.rayleigh_stiffness, nm.a4, &damping_velocity};
+    }
+    assembler_->add_beams(state_, residual, true, damping);
+    double ref_force = 0, ref_moment = 0;
+    for (int i = 0; i < n; ++i) {
+      ref_force = std::max(ref_force, residual.segment<3>(6 * i).norm());
+      ref_moment = std::max(ref_moment, residual.segment<3>(6 * i + 3).norm());
+    }
+
+    // Inertia (lumped) and mass-proportional damping.
+    if (dynamic) {
+      const double cm = step.rayleigh_mass;
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
+        const Eigen::Vector3d a = nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
+        const Eigen::Vector3d v = nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
+        const Eigen::Vector3d f = mass_(i) * (a + cm * v);
+        residual.segment<3>(6 * i) += f;
+        assembler_->add_node_block(i, 0, 0,
+                                   (mass_(i) * (nm.a1 + cm * nm.a4)) * Eigen::Matrix3d::Identity());
+        Eigen::Vector3d r;
+        Eigen::Matrix3d K;
+        rotary_inertia(rotary_inertia_.col(i), cm, nm,
+                       {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)}, state_.alpha.col(i),
+                       r, K);
+        residual.segment<3>(6 * i + 3) += r;
+        assembler_->add_node_block(i, 3, 3, K);
+        ref_force = std::max(ref_force, f.norm());
+        ref_moment = std::max(ref_moment, r.norm());
+      }
+    }
+
+    // External loads: dead forces and dead or follower moments.
+    for (const NodalLoad& l : model_.loads) {
+      const double factor = l.factor.at(t_new);
+      if (factor == 0.0)
+        continue;
+      for (int node : model_.node_sets[l.node_set].nodes) {
+        residual.segment<3>(6 * node) -= factor * l.force;
+        ref_force = std::max(ref_force, std::abs(factor) * l.force.norm());
+        if (l.moment.squaredNorm() == 0.0)
+          continue;
+        Eigen::Vector3d r;
+        Eigen::Matrix3d K;
+        applied_moment(factor * l.moment, l.follower_moment,
+                       state_.Q_n[node] * Q0_[node].transpose(), state_.alpha.col(node), r, K);
+        residual.segment<3>(6 * node + 3) += r;
+        assembler_->add_node_block(node, 3, 3, K);
+        ref_moment = std::max(ref_moment, std::abs(factor) * l.moment.norm());
+      }
+    }
+
+    // Forces and moments are compared on one scale: a moment M over the shortest element of
+    // length h is worth a force M / h.
+    ref_force = std::max(ref_force, ref_moment / min_length_);
+    ref_moment = std::max(ref_moment, ref_force * min_length_);
+
+    // Norms over the free equations.
+    double r_force = 0, r_moment = 0;
+    worst_dof = -1;
+    double worst = -1;
+    for (int d = 0; d < 6 * n; ++d) {
+      if (eq[d] < 0)
+        continue;
+      const double v = residual(d);
+      if (!std::isfinite(v))
+        return fmt::format("the residual is not finite at node {} DOF {}",
+                           model_.node_label(d / 6), dof_name(d % 6));
+      rhs(eq[d]) = -v;
+      if (d % 6 < 3)
+        r_force += v * v;
+      else
+        r_moment += v * v;
+      const double scaled = std::abs(v) / (d % 6 < 3 ? std::max(ref_force, floor_force_)
+                                                      : std::max(ref_moment, floor_moment_));
+      if (scaled > worst) {
+        worst = scaled;
+        worst_dof = d;
+      }
+    }
+    r_force = std::sqrt(r_force);
+    r_moment = std::sqrt(r_moment);
+    // Reference: the largest nodal force of any kind; a sum over nodes would grow with the mesh.
+    const double rel = std::max(r_force / std::max(ref_force, floor_force_),
+                                r_moment / std::max(ref_moment, floor_moment_));
+    report.residual_history.push_back(rel);
+    if (std::getenv("YARNSIM_DEBUG")) fmt::print("  iter {} rF {:.3e} rM {:.3e} refF {:.3e} refM {:.3e} du {:.3e} da {:.3e}\n", iter, r_force, r_moment, ref_force, ref_moment, last_du, last_da);
+
+    const bool residual_ok =
+        r_force <= std::max(step.tol_force * ref_force, floor_force_) &&
+        r_moment <= std::max(step.tol_force * ref_moment, floor_moment_);
+    bool increment_ok = false;
+    if (iter > 0) {
+      double step_du = 0, step_da = 0;
+      for (int i = 0; i < n; ++i) {
+        step_du = std::max(step_du, (state_.x.col(i) - state_.x_n.col(i)).norm());
+        step_da = std::max(step_da, state_.alpha.col(i).norm());
+      }
+      increment_ok = last_du <= step.tol_increment * std::max(step_du, floor_length_) &&
+                     last_da <= step.tol_increment * std::max(step_da, 1e-12);
+    } else {
+      increment_ok = r_force <= floor_force_ && r_moment <= floor_moment_;
+    }
+    if (residual_ok && increment_ok) {
+      report.iterations = iter;
+      // Reactions: residual at constrained DOFs; moments from r_alpha = Xi^T m.
+      reactions_.setZero();
+      for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 6; ++c)
+          if (eq[6 * i + c] < 0)
+            reactions_(c, i) = residual(6 * i + c);
+      for (int i = 0; i < n; ++i)
+        if (reactions_.col(i).tail<3>().squaredNorm() > 0)
+          reactions_.col(i).tail<3>() =
+              rodrigues_xi<double>(state_.alpha.col(i)).transpose().partialPivLu().solve(
+                  Eigen::Vector3d(reactions_.col(i).tail<3>()));
+      return {};
+    }
+    if (iter == step.max_iterations)
+      break;
+    if (iter > 2 && rel > 1e8 * report.residual_history.front())
+      return fmt::format("Newton diverged (residual grew from {:.3e} to {:.3e}); worst: node {} "
+                         "DOF {}",
+                         report.residual_history.front(), rel,
+                         model_.node_label(worst_dof / 6), dof_name(worst_dof % 6));
+
+    // Solve and update.
+    try {
+      if (!analysed_) {
+        solver_->analyze(assembler_->matrix());
+        analysed_ = true;
+      }
+      solver_->factorize(assembler_->matrix());
+    } catch (const LinearSolverError& e) {
+      return e.what();
+    }
+    const Eigen::VectorXd delta = solver_->solve(rhs);
+    if (std::getenv("YARNSIM_DEBUG")) fmt::print("   linear solve residual {:.3e} of {:.3e}\n", (assembler_->matrix() * delta - rhs).norm(), rhs.norm());
+    if (!delta.allFinite())
+      return "the linear solve returned non-finite values";
+    report.energy_history.push_back(std::abs(delta.dot(rhs)));
+    last_du = last_da = 0;
+    for (int i = 0; i < n; ++i)
+      for (int c = 0; c < 6; ++c) {
+        const int e = eq[6 * i + c];
+        if (e < 0)
+          continue;
+        if (c < 3)
+          state_.x(c, i) += delta(e);
+        else
+          state_.alpha(c - 3, i) += delta(e);
+      }
+    for (int i = 0; i < n; ++i) {
+      double du = 0, da = 0;
+      for (int c = 0; c < 3; ++c) {
+        const int eu = eq[6 * i + c], ea = eq[6 * i + 3 + c];
+        du += eu >= 0 ? delta(eu) * delta(eu) : 0.0;
+        da += ea >= 0 ? delta(ea) * delta(ea) : 0.0;
+      }
+      last_du = std::max(last_du, std::sqrt(du));
+      last_da = std::max(last_da, std::sqrt(da));
+    }
+    ++total_iterations_;
+  }
+  const int node = worst_dof >= 0 ? worst_dof / 6 : 0;
+  return fmt::format("no convergence in {} iterations (relative residual {:.3e}); worst: node {} "
+                     "DOF {}",
+                     step.max_iterations, report.residual_history.back(), model_.node_label(node),
+                     worst_dof >= 0 ? dof_name(worst_dof % 6) : "-");
+}
+
+void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
+  const int n = state_.n_nodes();
+  const bool dynamic = step.type == StepType::Dynamic;
+  const NewmarkCoefficients nm(step.newmark_beta, step.newmark_gamma, dt);
+
+  // External work by the trapezoidal rule, with the loads before the nodes are updated.
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> load = external_loads(t_new);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
+    const Eigen::Vector3d dtheta =
+        rotation_vector_of_rodrigues<double>(Eigen::Vector3d(state_.alpha.col(i)));
+    external_work_ += 0.5 * (load.col(i) + load_n_.col(i)).head<3>().dot(du) +
+                      0.5 * (load.col(i) + load_n_.col(i)).tail<3>().dot(dtheta);
+  }
+
+  for (std::size_t e = 0; e < state_.gauss.size(); ++e)
+    state_.gauss[e] = beam_committed_history(assembler_->references()[e], state_.gauss[e],
+                                             assembler_->nodal_values(state_, static_cast<int>(e)));
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d alpha = state_.alpha.col(i);
+    if (dynamic) {
+      const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
+      const Eigen::Vector3d a = nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
+      const Eigen::Vector3d v = nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
+      Eigen::Vector3d W, A;
+      newmark_angular(nm, {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)}, alpha, W, A);
+      state_.v_n.col(i) = v;
+      state_.a_n.col(i) = a;
+      state_.W_n.col(i) = W;
+      state_.A_n.col(i) = A;
+    } else {
+      state_.v_n.col(i).setZero();
+      state_.a_n.col(i).setZero();
+      state_.W_n.col(i).setZero();
+      state_.A_n.col(i).setZero();
+    }
+    state_.Q_n[i] = orthonormalized(rodrigues_rotation<double>(alpha) * state_.Q_n[i]);
+    state_.rotation_n.col(i) =
+        unwrap_rotation(state_.Q_n[i] * Q0_[i].transpose(), state_.rotation_n.col(i));
+  }
+  state_.x_n = state_.x;
+  state_.alpha.setZero();
+  state_.time = t_new;
+  ++state_.increment;
+  load_n_ = load;
+}
+
+void Simulation::run(SimulationObserver* observer) {
+  double t = state_.time;
+  for (std::size_t s = 0; s < model_.steps.size(); ++s) {
+    const SolutionStep& step = model_.steps[s];
+    if (step.type == StepType::Explicit)
+      throw std::invalid_argument("explicit steps are not supported by the implicit solver yet");
+    double dt = std::min(step.dt_initial, step.dt_max);
+    int failed = 0;
+    while (t < step.end_time * (1 - 1e-12)) {
+      if (options_.stop_requested && options_.stop_requested->load())
+        throw Interrupted(fmt::format("interrupted at t = {:.6g} s after increment {}", t,
+                                      state_.increment));
+      // Land exactly on the end time; avoid a sliver of a last increment.
+      double h = std::min(dt, step.end_time - t);
+      if (step.end_time - (t + h) < 1e-3 * h)
+        h = step.end_time - t;
+      IncrementReport report;
+      const std::string why = attempt(step, t + h, h, report);
+      if (!why.empty()) {
+        // Restore the converged state and halve.
+        state_.x = state_.x_n;
+        state_.alpha.setZero();
+        if (observer)
+          observer->on_attempt_failed(*this, t + h, h, why);
+        ++failed;
+        dt = 0.5 * h;
+        if (dt < step.dt_min * (1 - 1e-12))
+          throw ConvergenceError(fmt::format(
+              "step {} stopped at t = {:.6g} s: the time step {:.3e} s fell below the minimum "
+              "{:.3e} s; last failure: {}",
+              s + 1, t, dt, step.dt_min, why));
+        continue;
+      }
+      commit(step, h, t + h);
+      t += h;
+      report.step = static_cast<int>(s);
+      report.increment = state_.increment;
+      report.time = t;
+      report.dt = h;
+      report.failed_attempts = failed;
+      failed = 0;
+      if (observer)
+        observer->on_increment(*this, report);
+      // Grow after an easy increment.
+      if (report.iterations <= std::max(2, step.max_iterations / 4))
+        dt = std::min(1.5 * h, step.dt_max);
+      else
+        dt = h;
+    }
+    t = step.end_time;
+  }
+}
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> Simulation::section_resultants() const {
+  const int ne = static_cast<int>(model_.elements.size());
+  Eigen::Matrix<double, 6, Eigen::Dynamic> out(6, 2 * ne);
+  for (int e = 0; e < ne; ++e)
+    out.middleCols<2>(2 * e) = beam_section_resultants(assembler_->references()[e], state_.gauss[e],
+                                                       assembler_->nodal_values(state_, e));
+  return out;
+}
+
+double Simulation::kinetic_energy() const {
+  double T = 0;
+  for (int i = 0; i < state_.n_nodes(); ++i) {
+    T += 0.5 * mass_(i) * state_.v_n.col(i).squaredNorm();
+    T += 0.5 * state_.W_n.col(i).dot(rotary_inertia_.col(i).cwiseProduct(state_.W_n.col(i)));
+  }
+  return T;
+}
+
+double Simulation::strain_energy() const {
+  double U = 0;
+  for (int e = 0; e < static_cast<int>(model_.elements.size()); ++e)
+    U += beam_strain_energy(assembler_->references()[e], state_.gauss[e],
+                            assembler_->nodal_values(state_, e));
+  return U;
+}
+
+Eigen::Vector3d Simulation::linear_momentum() const {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (int i = 0; i < state_.n_nodes(); ++i)
+    p += mass_(i) * state_.v_n.col(i);
+  return p;
+}
+
+Eigen::Vector3d Simulation::angular_momentum() const {
+  Eigen::Vector3d L = Eigen::Vector3d::Zero();
+  for (int i = 0; i < state_.n_nodes(); ++i) {
+    L += state_.x_n.col(i).cross(mass_(i) * state_.v_n.col(i));
+    L += state_.Q_n[i] * rotary_inertia_.col(i).cwiseProduct(state_.W_n.col(i));
+  }
+  return L;
+}
+
+} // namespace yarnsim

@@ -1,0 +1,128 @@
+#pragma once
+// The implicit path: for each solution step, increments of adaptive size, each solved by
+// Newton-Raphson on the residual r = f_int + f_inertia - f_ext over the free equations
+// (formulation.md §3). Static steps drop the inertia; dynamic steps use Newmark on translations and
+// Simo and Vu-Quoc's material form on rotations.
+
+#include "engine/assembly/assembler.hpp"
+#include "engine/model/model.hpp"
+#include "engine/solver/linear_solver.hpp"
+#include "engine/state/state.hpp"
+
+#include <atomic>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace yarnsim {
+
+/// The step size fell below the step's minimum: the run cannot go on (exit code 3).
+class ConvergenceError : public std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// The run was asked to stop (SIGINT or SIGTERM) and stopped after a completed increment.
+class Interrupted : public std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// What one converged increment took.
+struct IncrementReport {
+  int step = 0;           ///< index of the solution step
+  int increment = 0;      ///< converged increments since the start of the run
+  double time = 0;        ///< s, at the end of the increment
+  double dt = 0;          ///< s
+  int iterations = 0;     ///< Newton iterations of the converged attempt
+  int failed_attempts = 0; ///< attempts halved before this one converged
+  /// max(force, moment) residual relative to its reference, before each solve and at the end.
+  std::vector<double> residual_history;
+  /// |delta . r| of each Newton correction (J): the energy norm, insensitive to the scaling
+  /// between stiff axial and soft bending modes.
+  std::vector<double> energy_history;
+};
+
+class SimulationObserver {
+public:
+  virtual ~SimulationObserver() = default;
+  virtual void on_increment(const class Simulation&, const IncrementReport&) {}
+  /// An attempt failed and the step is halved; why says what failed.
+  virtual void on_attempt_failed(const class Simulation&, double /*time*/, double /*dt*/,
+                                 const std::string& /*why*/) {}
+};
+
+struct SimulationOptions {
+  LinearSolverKind linear_solver = LinearSolverKind::LU;
+  /// Set from a signal handler; checked between increments.
+  const std::atomic<bool>* stop_requested = nullptr;
+};
+
+class Simulation {
+public:
+  Simulation(const Model& model, SimulationOptions options = {});
+  ~Simulation();
+
+  /// Runs every solution step to its end time. Throws ConvergenceError or Interrupted.
+  void run(SimulationObserver* observer = nullptr);
+
+  const Model& model() const { return model_; }
+  const State& state() const { return state_; }
+  const Assembler& assembler() const { return *assembler_; }
+  int total_iterations() const { return total_iterations_; }
+  const std::string& linear_solver_name() const { return solver_name_; }
+
+  /// Reactions at constrained DOFs of the last converged increment, 6 x n_nodes (N, N m).
+  const Eigen::Matrix<double, 6, Eigen::Dynamic>& reactions() const { return reactions_; }
+  /// Section resultants (forces N, moments N m) at the Gauss points, 6 x (2 n_elements).
+  Eigen::Matrix<double, 6, Eigen::Dynamic> section_resultants() const;
+  /// Kinetic energy of the last converged increment, J.
+  double kinetic_energy() const;
+  /// Strain energy of the last converged increment, J.
+  double strain_energy() const;
+  /// Work of the external loads up to the last converged increment (trapezoidal rule), J.
+  double external_work() const { return external_work_; }
+  /// Total linear momentum (kg m/s) and angular momentum about the origin (kg m^2/s).
+  Eigen::Vector3d linear_momentum() const;
+  Eigen::Vector3d angular_momentum() const;
+  /// Lumped nodal mass (kg) and material rotary inertia (kg m^2).
+  const Eigen::VectorXd& nodal_mass() const { return mass_; }
+
+private:
+  struct PrescribedDisplacement {
+    int node, component;
+    const TimeTable* table;
+  };
+  struct PrescribedRotation {
+    int node;
+    const std::array<TimeTable, 3>* tables;
+  };
+
+  /// Tries one increment from the converged state to time t_new. Returns an empty string on
+  /// success, otherwise why it failed (the state is then restored).
+  std::string attempt(const SolutionStep& step, double t_new, double dt, IncrementReport& report);
+  void commit(const SolutionStep& step, double dt, double t_new);
+  void apply_prescribed(double t_new);
+  /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
+
+  const Model& model_;
+  SimulationOptions options_;
+  std::unique_ptr<Assembler> assembler_;
+  std::unique_ptr<LinearSolver> solver_;
+  std::string solver_name_;
+  State state_;
+  std::vector<Eigen::Matrix3d> Q0_; ///< reference nodal triads
+  Eigen::VectorXd mass_;            ///< per node, kg
+  Eigen::Matrix3Xd rotary_inertia_; ///< per node, material diag, kg m^2
+  std::vector<PrescribedDisplacement> prescribed_u_;
+  std::vector<PrescribedRotation> prescribed_r_;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> reactions_;
+  double floor_force_ = 0, floor_moment_ = 0, floor_length_ = 0;
+  double min_length_ = 1; ///< shortest element, m
+  double external_work_ = 0;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
+  int total_iterations_ = 0;
+  bool analysed_ = false;
+};
+
+} // namespace yarnsim

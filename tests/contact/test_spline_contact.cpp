@@ -1,0 +1,631 @@
+#include "contact/spline_contact.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <random>
+#include <set>
+#include <utility>
+#include <vector>
+
+namespace yarnsim::contact {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using Vec18 = Eigen::Matrix<double, 18, 1>;
+using Mat18 = Eigen::Matrix<double, 18, 18>;
+
+// Scales of the study (formulation.md §1): control points ~1 mm apart, r = 0.284 mm,
+// spline penalty 1.5e6 N/m, penetrations of microns.
+constexpr double kL = 1.1e-3;
+constexpr double kRadius = 2.840909e-4;
+constexpr double kEps = 1.5e6;
+
+/// One segment pair: control points of A and B (columns, metres) and their bases.
+struct Pair {
+  Matrix3d xa;
+  Matrix3d xb;
+  const SegmentBasis* ba;
+  const SegmentBasis* bb;
+  double ra = kRadius;
+  double rb = kRadius;
+};
+
+const SplineCurve& curve5() {
+  static const SplineCurve curve(5); // segments: first (double knot), interior, last
+  return curve;
+}
+
+SplineContactResult solve(const Pair& p, const InterfaceLaw& law, const ProjectionStart& start = {},
+                          const SplineContactOptions& options = {},
+                          const PairRates* rates = nullptr) {
+  return spline_contact(p.xa, *p.ba, p.ra, p.xb, *p.bb, p.rb, start, law, options, rates);
+}
+
+double& dof(Pair& p, int i) {
+  return i < 9 ? p.xa(i % 3, i / 3) : p.xb(i % 3, (i - 9) / 3);
+}
+
+/// Translates B so that the contact points sit at local coordinates (ua, ub) and the centre
+/// distance is r_A + r_B - delta. Returns false if the projection fails on the way.
+bool place(Pair& p, double ua, double ub, double delta) {
+  SplineContactOptions wide;
+  wide.max_extension = 10.0;
+  for (int it = 0; it < 100; ++it) {
+    const ProjectionResult pr = closest_point_projection(p.xa, *p.ba, p.xb, *p.bb, {}, wide);
+    if (pr.status == ProjectionStatus::NotConverged) {
+      return false;
+    }
+    const double ua0 = p.ba->local(pr.xi_A);
+    const double ub0 = p.bb->local(pr.xi_B);
+    const Vector3d ca = p.xa * p.ba->values_local(ua0);
+    const Vector3d cb = p.xb * p.bb->values_local(ub0);
+    if (std::abs(ua0 - ua) < 1e-13 && std::abs(ub0 - ub) < 1e-13) {
+      const Vector3d g = ca - cb;
+      const double s = g.norm() - (p.ra + p.rb - delta);
+      p.xb.colwise() += s * g.normalized();
+      return true;
+    }
+    const Vector3d move =
+        (p.xa * p.ba->values_local(ua) - ca) - (p.xb * p.bb->values_local(ub) - cb);
+    p.xb.colwise() += move;
+  }
+  return false;
+}
+
+/// A random pair crossing at an angle of at least 20 degrees, curved, with random segments of
+/// a 5-point spline for A and B.
+Pair random_crossing(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::uniform_int_distribution<int> seg(0, 2);
+  Pair p;
+  p.ba = &curve5().segment(seg(rng));
+  p.bb = &curve5().segment(seg(rng));
+  const Eigen::Quaterniond q = Eigen::Quaterniond::UnitRandom();
+  const double angle = (20.0 + 140.0 * (0.5 + 0.5 * u(rng))) * M_PI / 180.0;
+  const Vector3d da = q * Vector3d::UnitX();
+  const Vector3d db = q * Vector3d(std::cos(angle), std::sin(angle), 0.0);
+  for (int k = 0; k < 3; ++k) {
+    p.xa.col(k) = (k - 1) * kL * da + 0.2 * kL * Vector3d(u(rng), u(rng), u(rng));
+    p.xb.col(k) = (k - 1) * kL * db + 0.2 * kL * Vector3d(u(rng), u(rng), u(rng));
+  }
+  p.xb.colwise() += Vector3d(kL, -kL, 2 * kL);
+  return p;
+}
+
+/// Max-norm relative error of the tangent against central differences of the residual.
+/// The perturbed solves are warm-started from the base solution, as in a Newton iteration.
+double tangent_error(const Pair& base, const InterfaceLaw& law, const PairRates* rates = nullptr) {
+  const SplineContactResult r0 = solve(base, law, {}, {}, rates);
+  EXPECT_EQ(r0.status, ProjectionStatus::Converged);
+  EXPECT_TRUE(r0.active);
+  const ProjectionStart warm{r0.xi_A, r0.xi_B, true};
+  const double h = 1e-6 * kL;
+  Mat18 fd;
+  for (int i = 0; i < 18; ++i) {
+    Vec18 res[2];
+    for (int side = 0; side < 2; ++side) {
+      const double step = side == 0 ? h : -h;
+      Pair p = base;
+      dof(p, i) += step;
+      PairRates moved;
+      if (rates != nullptr) {
+        moved = *rates;
+        double& v = i < 9 ? moved.velocity_A(i % 3, i / 3) : moved.velocity_B(i % 3, (i - 9) / 3);
+        v += rates->velocity_per_displacement * step;
+      }
+      const SplineContactResult r = solve(p, law, warm, {}, rates != nullptr ? &moved : nullptr);
+      EXPECT_EQ(r.status, ProjectionStatus::Converged);
+      EXPECT_EQ(r.degenerate, r0.degenerate);
+      res[side] = r.residual;
+    }
+    fd.col(i) = (res[0] - res[1]) / (2 * h);
+  }
+  return (fd - r0.tangent).cwiseAbs().maxCoeff() / r0.tangent.cwiseAbs().maxCoeff();
+}
+
+/// Max-norm relative error of the residual against central differences of the law's potential.
+double residual_error(const Pair& base, const InterfaceLaw& law) {
+  const SplineContactResult r0 = solve(base, law);
+  EXPECT_TRUE(r0.active);
+  const double h = 1e-6 * kL;
+  Vec18 fd;
+  for (int i = 0; i < 18; ++i) {
+    Pair plus = base;
+    Pair minus = base;
+    dof(plus, i) += h;
+    dof(minus, i) -= h;
+    fd(i) = (solve(plus, law).potential - solve(minus, law).potential) / (2 * h);
+  }
+  return (fd - r0.residual).cwiseAbs().maxCoeff() / r0.residual.cwiseAbs().maxCoeff();
+}
+
+TEST(SplineContact, CrossingBeamsGiveEpsTimesOverlapAlongTheNormal) {
+  const SplineCurve c3(3);
+  const LinearPenalty law(kEps);
+  const double delta = 2e-6;
+  Pair p{Matrix3d::Zero(), Matrix3d::Zero(), &c3.segment(0), &c3.segment(0), 2e-4, 3e-4};
+  const double d = p.ra + p.rb - delta;
+  for (int k = 0; k < 3; ++k) {
+    p.xa.col(k) = Vector3d((k - 1) * kL, 0.0, 0.0);
+    p.xb.col(k) = Vector3d(0.0, (k - 1) * kL, d); // B above A, at right angles
+  }
+  const SplineContactResult r = solve(p, law);
+  ASSERT_EQ(r.status, ProjectionStatus::Converged);
+  EXPECT_TRUE(r.active);
+  EXPECT_FALSE(r.degenerate);
+  EXPECT_NEAR(r.xi_A, 0.5, 1e-14);
+  EXPECT_NEAR(r.xi_B, 0.5, 1e-14);
+  EXPECT_NEAR(r.penetration, delta, 1e-18);
+  EXPECT_NEAR(r.force, kEps * delta, 1e-9 * kEps * delta);
+  EXPECT_LT((r.normal - Vector3d(0, 0, -1)).norm(), 1e-15);
+  Vector3d on_a = Vector3d::Zero();
+  Vector3d on_b = Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    on_a += r.residual.segment<3>(3 * k);
+    on_b += r.residual.segment<3>(9 + 3 * k);
+  }
+  // Internal-force sign: A is pushed down (-z), so its residual points up.
+  EXPECT_LT((on_a - Vector3d(0, 0, kEps * delta)).norm(), 1e-9 * kEps * delta);
+  EXPECT_LT((on_b + on_a).norm(), 1e-12 * kEps * delta);
+  // The mid control point of a 3-point spline carries half the load at xi = 1/2.
+  EXPECT_NEAR(r.residual(5), 0.5 * kEps * delta, 1e-9 * kEps * delta);
+}
+
+TEST(SplineContact, CrossingStraightMultiSegmentYarns) {
+  const SplineCurve c7(7);
+  const LinearPenalty law(kEps);
+  const double delta = 5e-6;
+  Eigen::Matrix3Xd ya(3, 7);
+  Eigen::Matrix3Xd yb(3, 7);
+  for (int i = 0; i < 7; ++i) {
+    ya.col(i) = Vector3d((i - 3.3) * kL, 0.0, 0.0);
+    yb.col(i) = Vector3d(0.0, (i - 2.8) * kL, 2 * kRadius - delta);
+  }
+  int owners = 0;
+  Vector3d total = Vector3d::Zero();
+  for (int a = 0; a < c7.num_segments(); ++a) {
+    for (int b = 0; b < c7.num_segments(); ++b) {
+      const Pair p{c7.control_points(ya, a), c7.control_points(yb, b), &c7.segment(a),
+                   &c7.segment(b)};
+      const SplineContactResult r = solve(p, law);
+      if (r.active) {
+        ++owners;
+        EXPECT_NEAR(r.force, kEps * delta, 1e-8 * kEps * delta);
+        for (int k = 0; k < 3; ++k) {
+          total += r.residual.segment<3>(3 * k);
+        }
+      }
+    }
+  }
+  EXPECT_EQ(owners, 1);
+  EXPECT_LT((total - Vector3d(0, 0, kEps * delta)).norm(), 1e-8 * kEps * delta);
+}
+
+TEST(SplineContact, TangentMatchesCentralDifferencesAtRandomCrossings) {
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  const LinearPenalty linear(kEps);
+  const PowerLaw power(5e8, 1.5);
+  int tested = 0;
+  while (tested < 40) {
+    Pair p = random_crossing(rng);
+    if (!place(p, u(rng), u(rng), 1e-6 + 1e-5 * (0.5 + 0.5 * u(rng)))) {
+      continue;
+    }
+    ++tested;
+    EXPECT_LT(tangent_error(p, linear), 1e-6) << "configuration " << tested;
+    EXPECT_LT(tangent_error(p, power), 1e-6) << "configuration " << tested;
+  }
+}
+
+TEST(SplineContact, TangentMatchesCentralDifferencesNearSegmentEnds) {
+  std::mt19937 rng(7);
+  const LinearPenalty law(kEps);
+  const std::pair<double, double> targets[] = {{0.499, 0.0},  {-0.499, 0.1},   {0.2, 0.499},
+                                               {0.1, -0.499}, {0.499, -0.499}, {-0.499, 0.499}};
+  for (const auto& [ua, ub] : targets) {
+    int tested = 0;
+    while (tested < 5) {
+      Pair p = random_crossing(rng);
+      if (!place(p, ua, ub, 4e-6)) {
+        continue;
+      }
+      ++tested;
+      const SplineContactResult r = solve(p, law);
+      EXPECT_NEAR(p.ba->local(r.xi_A), ua, 1e-9);
+      EXPECT_NEAR(p.bb->local(r.xi_B), ub, 1e-9);
+      EXPECT_LT(tangent_error(p, law), 1e-6) << "targets " << ua << ", " << ub;
+    }
+  }
+}
+
+TEST(SplineContact, ResidualIsTheGradientOfTheContactPotential) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.45, 0.45);
+  const LinearPenalty law(kEps);
+  int tested = 0;
+  while (tested < 20) {
+    Pair p = random_crossing(rng);
+    if (!place(p, u(rng), u(rng), 3e-6)) {
+      continue;
+    }
+    ++tested;
+    const SplineContactResult r = solve(p, law);
+    EXPECT_NEAR(r.potential, 0.5 * kEps * r.penetration * r.penetration, 1e-20);
+    EXPECT_LT(residual_error(p, law), 1e-6);
+  }
+}
+
+/// Near-parallel pairs: A's segment and a copy of it rotated by `angle` about an axis across it,
+/// offset sideways to the contact distance and shifted along A by `shift` (in segments).
+Pair parallel_pair(std::mt19937& rng, int segment, double angle, double shift, double delta) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Pair p;
+  p.ba = &curve5().segment(segment);
+  p.bb = p.ba;
+  const Eigen::Quaterniond q = Eigen::Quaterniond::UnitRandom();
+  for (int k = 0; k < 3; ++k) {
+    p.xa.col(k) = q * Vector3d((k - 1) * kL, 0.05 * kL * u(rng), 0.05 * kL * u(rng));
+  }
+  const Vector3d chord = p.xa * (p.ba->values_local(0.5) - p.ba->values_local(-0.5));
+  const Vector3d side = chord.unitOrthogonal();
+  const Vector3d axis = chord.cross(side).normalized();
+  const Eigen::AngleAxisd turn(angle, axis);
+  const Vector3d centre = p.xa * p.ba->values_local(0.0);
+  for (int k = 0; k < 3; ++k) {
+    p.xb.col(k) =
+        centre + turn * (p.xa.col(k) - centre) + shift * chord + (2 * kRadius - delta) * side;
+  }
+  return p;
+}
+
+TEST(SplineContact, NearParallelSegmentsTakeTheDegeneratePathWithAConsistentTangent) {
+  std::mt19937 rng(11);
+  const LinearPenalty law(kEps);
+  const PowerLaw power(5e8, 2.0);
+  int tested = 0;
+  for (int trial = 0; trial < 200 && tested < 24; ++trial) {
+    const int segment = trial % 3;
+    // Partial overlaps (one end of the overlap set by B), full overlaps, tiny angles.
+    const double shift = std::array<double, 4>{0.0, 0.3, -0.25, 0.05}[trial % 4];
+    const double angle = std::array<double, 3>{4e-3, -2e-3, 1e-5}[trial % 3];
+    const Pair p = parallel_pair(rng, segment, angle, shift, 3e-6);
+    const SplineContactResult r = solve(p, law);
+    ASSERT_TRUE(r.degenerate);
+    if (r.status != ProjectionStatus::Converged || r.penetration < 1e-6) {
+      continue; // curvature moved the closest points apart; not this test's case
+    }
+    ++tested;
+    EXPECT_LT(tangent_error(p, law), 1e-6) << "trial " << trial;
+    EXPECT_LT(tangent_error(p, power), 1e-6) << "trial " << trial;
+    EXPECT_LT(residual_error(p, law), 1e-6) << "trial " << trial;
+  }
+  EXPECT_GE(tested, 12);
+}
+
+TEST(SplineContact, ParallelStraightSegmentsTouchAtTheOverlapMidpoint) {
+  const SplineCurve c3(3);
+  const LinearPenalty law(kEps);
+  const double delta = 2e-6;
+  Pair p{Matrix3d::Zero(), Matrix3d::Zero(), &c3.segment(0), &c3.segment(0)};
+  for (int k = 0; k < 3; ++k) {
+    p.xa.col(k) = Vector3d((k - 1) * kL, 0.0, 0.0);
+    p.xb.col(k) = Vector3d((k - 1) * kL + 0.5 * kL, 0.0, 2 * kRadius - delta); // overlap [0, 1]
+  }
+  const SplineContactResult r = solve(p, law);
+  ASSERT_TRUE(r.degenerate);
+  ASSERT_EQ(r.status, ProjectionStatus::Converged);
+  // A spans [-L, L], B [-L/2, 3L/2]: overlap [-L/2, L], midpoint L/4 = xi_A 0.625.
+  EXPECT_NEAR(r.xi_A, 0.625, 1e-14);
+  EXPECT_NEAR(r.point_A.x(), 0.25 * kL, 1e-15);
+  EXPECT_NEAR(r.point_B.x(), 0.25 * kL, 1e-15);
+  EXPECT_NEAR(r.force, kEps * delta, 1e-9 * kEps * delta);
+}
+
+TEST(SplineContact, DampingTangentIncludesTheVelocityCoupling) {
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const DampedLaw law(std::make_shared<LinearPenalty>(kEps), 20.0);
+  int tested = 0;
+  while (tested < 10) {
+    Pair p = random_crossing(rng);
+    if (!place(p, 0.3 * u(rng), 0.3 * u(rng), 5e-6)) {
+      continue;
+    }
+    ++tested;
+    PairRates rates;
+    for (int k = 0; k < 3; ++k) {
+      rates.velocity_A.col(k) = 0.01 * Vector3d(u(rng), u(rng), u(rng));
+      rates.velocity_B.col(k) = 0.01 * Vector3d(u(rng), u(rng), u(rng));
+    }
+    rates.velocity_per_displacement = 0.5 / (0.3 * 1e-4); // Newmark gamma / (beta dt)
+    const SplineContactResult r = solve(p, law, {}, {}, &rates);
+    ASSERT_TRUE(r.active);
+    ASSERT_GT(r.force, 0.0);
+    EXPECT_NEAR(r.force, kEps * r.penetration + 20.0 * r.penetration_rate, 1e-9 * r.force);
+    EXPECT_LT(tangent_error(p, law, &rates), 1e-6);
+  }
+}
+
+/// Minimum of |g| over both ranges by dense sampling and zooming in.
+std::pair<double, Eigen::Vector2d> brute_force(const Pair& p) {
+  auto distance = [&](double ua, double ub) {
+    return (p.xa * p.ba->values_local(ua) - p.xb * p.bb->values_local(ub)).norm();
+  };
+  double best = INFINITY;
+  Eigen::Vector2d arg(0, 0);
+  const int n = 200;
+  for (int i = 0; i <= n; ++i) {
+    for (int j = 0; j <= n; ++j) {
+      const double ua = -0.5 + double(i) / n;
+      const double ub = -0.5 + double(j) / n;
+      if (distance(ua, ub) < best) {
+        best = distance(ua, ub);
+        arg << ua, ub;
+      }
+    }
+  }
+  double width = 2.0 / n;
+  for (int level = 0; level < 40; ++level) {
+    const Eigen::Vector2d centre = arg;
+    for (int i = -10; i <= 10; ++i) {
+      for (int j = -10; j <= 10; ++j) {
+        const double ua = std::clamp(centre(0) + width * i / 10.0, -0.5, 0.5);
+        const double ub = std::clamp(centre(1) + width * j / 10.0, -0.5, 0.5);
+        if (distance(ua, ub) < best) {
+          best = distance(ua, ub);
+          arg << ua, ub;
+        }
+      }
+    }
+    width *= 0.3;
+  }
+  return {best, arg};
+}
+
+TEST(SplineContact, ProjectionAgreesWithBruteForceSampling) {
+  std::mt19937 rng(5);
+  int converged = 0;
+  int out_of_range = 0;
+  for (int trial = 0; trial < 60; ++trial) {
+    Pair p = random_crossing(rng);
+    std::uniform_real_distribution<double> u(-0.8, 0.8);
+    if (!place(p, u(rng), u(rng), 1e-5)) {
+      continue;
+    }
+    // Move B off the placed point, so the projection starts cold and far from it.
+    const ProjectionResult pr = closest_point_projection(p.xa, *p.ba, p.xb, *p.bb, {});
+    const auto [best, arg] = brute_force(p);
+    if (pr.status == ProjectionStatus::Converged) {
+      ++converged;
+      const Vector3d g = p.xa * p.ba->values(pr.xi_A) - p.xb * p.bb->values(pr.xi_B);
+      EXPECT_NEAR(g.norm(), best, 1e-12 * kL);
+      EXPECT_NEAR(p.ba->local(pr.xi_A), arg(0), 1e-6);
+      EXPECT_NEAR(p.bb->local(pr.xi_B), arg(1), 1e-6);
+    } else {
+      ASSERT_EQ(pr.status, ProjectionStatus::OutOfRange);
+      ++out_of_range;
+      // The minimum over the ranges then lies on a range end.
+      EXPECT_NEAR(arg.cwiseAbs().maxCoeff(), 0.5, 1e-12);
+    }
+  }
+  EXPECT_GT(converged, 10);
+  EXPECT_GT(out_of_range, 10);
+}
+
+TEST(SplineContact, WarmStartConvergesInFewIterations) {
+  std::mt19937 rng(23);
+  const LinearPenalty law(kEps);
+  int tested = 0;
+  while (tested < 20) {
+    Pair p = random_crossing(rng);
+    if (!place(p, 0.1, -0.2, 3e-6)) {
+      continue;
+    }
+    ++tested;
+    const SplineContactResult cold = solve(p, law);
+    Pair moved = p;
+    moved.xb.colwise() += Vector3d(1e-3, -2e-3, 1e-3) * kL;
+    const SplineContactResult warm = solve(moved, law, {cold.xi_A, cold.xi_B, true});
+    EXPECT_EQ(warm.status, ProjectionStatus::Converged);
+    EXPECT_LE(warm.iterations, 3);
+  }
+}
+
+/// A wavy yarn along x (woven-like) and a straight yarn along y above it; returns every segment
+/// pair's result.
+struct Weave {
+  SplineCurve ca{9};
+  SplineCurve cb{5};
+  Eigen::Matrix3Xd ya{3, 9};
+  Eigen::Matrix3Xd yb{3, 5};
+};
+
+Weave make_weave(double x, double overlap) {
+  Weave w;
+  for (int i = 0; i < 9; ++i) {
+    w.ya.col(i) = Vector3d(i * kL, 0.1 * kL * std::sin(1.3 * i), 0.15 * kL * ((i % 2) ? 1 : -1));
+  }
+  // Height of A below x: sample the curve finely (its x is monotone).
+  double z = 0;
+  double best = INFINITY;
+  for (int s = 0; s <= 20000; ++s) {
+    const Vector3d c = w.ca.point(w.ya, s / 20000.0);
+    if (std::abs(c.x() - x) < best) {
+      best = std::abs(c.x() - x);
+      z = c.z();
+    }
+  }
+  for (int j = 0; j < 5; ++j) {
+    w.yb.col(j) = Vector3d(x, (j - 2.2) * kL, z + 2 * kRadius - overlap);
+  }
+  return w;
+}
+
+TEST(SplineContact, ContactSlidingOverKnotsIsOwnedByExactlyOnePair) {
+  const LinearPenalty law(kEps);
+  std::set<int> owners_seen;
+  Vec18 dummy;
+  const int steps = 1500;
+  for (int s = 0; s <= steps; ++s) {
+    const double x = (1.2 + 3.6 * s / steps) * kL; // crosses segments 1..5 of A
+    const Weave w = make_weave(x, 5e-6);
+    int active = 0;
+    for (int a = 0; a < w.ca.num_segments(); ++a) {
+      for (int b = 0; b < w.cb.num_segments(); ++b) {
+        const SplineContactResult r =
+            spline_contact(w.ca.control_points(w.ya, a), w.ca.segment(a), kRadius,
+                           w.cb.control_points(w.yb, b), w.cb.segment(b), kRadius, {}, law);
+        if (r.active) {
+          ++active;
+          owners_seen.insert(a);
+        }
+      }
+    }
+    ASSERT_EQ(active, 1) << "x = " << x / kL << " L";
+  }
+  EXPECT_GE(owners_seen.size(), 4u);
+}
+
+/// Global contact force on A's nodes from all pairs.
+Eigen::Matrix3Xd force_on_a(const Weave& w, const InterfaceLaw& law, int* owner) {
+  Eigen::Matrix3Xd f = Eigen::Matrix3Xd::Zero(3, 9);
+  for (int a = 0; a < w.ca.num_segments(); ++a) {
+    for (int b = 0; b < w.cb.num_segments(); ++b) {
+      const SplineContactResult r =
+          spline_contact(w.ca.control_points(w.ya, a), w.ca.segment(a), kRadius,
+                         w.cb.control_points(w.yb, b), w.cb.segment(b), kRadius, {}, law);
+      if (r.active) {
+        *owner = a;
+        for (int k = 0; k < 3; ++k) {
+          f.col(a + k) += r.residual.segment<3>(3 * k);
+        }
+      }
+    }
+  }
+  return f;
+}
+
+TEST(SplineContact, ContactForceIsContinuousAcrossAKnot) {
+  const LinearPenalty law(kEps);
+  // Find a B position where the owner changes, by bisection on x.
+  double lo = 1.7 * kL;
+  double hi = 2.9 * kL;
+  int owner_lo = -1;
+  int owner_hi = -1;
+  force_on_a(make_weave(lo, 5e-6), law, &owner_lo);
+  force_on_a(make_weave(hi, 5e-6), law, &owner_hi);
+  ASSERT_NE(owner_lo, owner_hi);
+  for (int it = 0; it < 40; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    int owner = -1;
+    force_on_a(make_weave(mid, 5e-6), law, &owner);
+    (owner == owner_lo ? lo : hi) = mid;
+  }
+  // make_weave places B at the curve's height sampled on a grid, identical on both sides here.
+  const Weave left = make_weave(lo, 5e-6);
+  Weave right = left;
+  right.yb.row(0).array() += hi - lo;
+  int a_left = -1;
+  int a_right = -1;
+  const Eigen::Matrix3Xd f_left = force_on_a(left, law, &a_left);
+  const Eigen::Matrix3Xd f_right = force_on_a(right, law, &a_right);
+  EXPECT_NE(a_left, a_right);
+  EXPECT_LT((f_left - f_right).norm(), 1e-6 * f_left.norm());
+}
+
+TEST(SplineContact, ContactExactlyAtAKnotHasOneOwner) {
+  const SplineCurve ca(6);
+  const SplineCurve cb(4);
+  const LinearPenalty law(kEps);
+  Eigen::Matrix3Xd ya(3, 6);
+  Eigen::Matrix3Xd yb(3, 4);
+  for (int i = 0; i < 6; ++i) {
+    ya.col(i) = Vector3d(i * kL, 0.0, 0.0);
+  }
+  for (int k = 1; k < ca.num_segments(); ++k) {
+    // Knot k is the midpoint of control points k and k+1: B crosses exactly there.
+    const double x = 0.5 * (ya(0, k) + ya(0, k + 1));
+    for (const double angle : {0.0, 0.3, -0.7}) {
+      for (int j = 0; j < 4; ++j) {
+        yb.col(j) = Vector3d(x + std::sin(angle) * (j - 1.5) * kL, std::cos(angle) * (j - 1.5) * kL,
+                             2 * kRadius - 1e-6);
+      }
+      int active = 0;
+      for (int a = 0; a < ca.num_segments(); ++a) {
+        for (int b = 0; b < cb.num_segments(); ++b) {
+          const SplineContactResult r =
+              spline_contact(ca.control_points(ya, a), ca.segment(a), kRadius,
+                             cb.control_points(yb, b), cb.segment(b), kRadius, {}, law);
+          active += r.active ? 1 : 0;
+        }
+      }
+      EXPECT_EQ(active, 1) << "knot " << k << ", angle " << angle;
+    }
+  }
+}
+
+TEST(SplineContact, SeparatedPairIsInactiveWithZeroResidual) {
+  std::mt19937 rng(2);
+  const LinearPenalty law(kEps);
+  Pair p;
+  do {
+    p = random_crossing(rng);
+  } while (!place(p, 0.0, 0.1, -1e-5)); // gap of 10 microns
+  const SplineContactResult r = solve(p, law);
+  EXPECT_EQ(r.status, ProjectionStatus::Converged);
+  EXPECT_FALSE(r.active);
+  EXPECT_NEAR(r.gap, 1e-5, 1e-15);
+  EXPECT_EQ(r.force, 0.0);
+  EXPECT_EQ(r.residual.norm(), 0.0);
+  EXPECT_EQ(r.tangent.norm(), 0.0);
+}
+
+TEST(SplineContact, StatusReportsOutOfRangeJumpAndFailure) {
+  std::mt19937 rng(9);
+  const LinearPenalty law(kEps);
+  Pair p;
+  do {
+    p = random_crossing(rng);
+  } while (!place(p, 0.7, 0.0, 5e-6));
+  const SplineContactResult out = solve(p, law);
+  EXPECT_EQ(out.status, ProjectionStatus::OutOfRange);
+  EXPECT_FALSE(out.active);
+  EXPECT_EQ(out.residual.norm(), 0.0);
+  EXPECT_NEAR(p.ba->local(out.xi_A), 0.7, 1e-9);
+
+  do {
+    p = random_crossing(rng);
+  } while (!place(p, 0.4, 0.0, 5e-6));
+  const double far_start = p.ba->global(-0.3);
+  const SplineContactResult jumped = solve(p, law, {far_start, p.bb->global(0.0), true});
+  EXPECT_EQ(jumped.status, ProjectionStatus::Jumped);
+  EXPECT_TRUE(jumped.active); // the caller decides; the values are still right
+  SplineContactOptions one;
+  one.max_iterations = 1;
+  const SplineContactResult failed = solve(p, law, {far_start, p.bb->global(-0.4), true}, one);
+  EXPECT_EQ(failed.status, ProjectionStatus::NotConverged);
+  EXPECT_FALSE(failed.active);
+}
+
+TEST(SplineContact, ResidualOnlyOptionSkipsTheTangent) {
+  std::mt19937 rng(4);
+  const LinearPenalty law(kEps);
+  Pair p;
+  do {
+    p = random_crossing(rng);
+  } while (!place(p, 0.0, 0.0, 5e-6));
+  SplineContactOptions options;
+  options.compute_tangent = false;
+  const SplineContactResult full = solve(p, law);
+  const SplineContactResult lean = solve(p, law, {}, options);
+  EXPECT_EQ((full.residual - lean.residual).norm(), 0.0);
+  EXPECT_EQ(lean.tangent.norm(), 0.0);
+}
+
+} // namespace
+} // namespace yarnsim::contact

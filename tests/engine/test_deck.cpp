@@ -1,0 +1,560 @@
+#include "engine/model/deck.hpp"
+#include "engine/model/model.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <numbers>
+#include <string>
+#include <vector>
+
+namespace yarnsim {
+namespace {
+
+const std::filesystem::path kExamples = std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples";
+
+/// "deck.toml:line:col: " of the first occurrence of `needle` in `deck` (1-based, as toml++).
+std::string where(std::string_view deck, std::string_view needle, std::size_t occurrence = 0) {
+  std::size_t at = deck.find(needle);
+  for (std::size_t k = 0; k < occurrence; ++k)
+    at = deck.find(needle, at + 1);
+  EXPECT_NE(at, std::string_view::npos) << needle;
+  const std::size_t line_start =
+      deck.rfind('\n', at) == std::string_view::npos ? 0 : deck.rfind('\n', at) + 1;
+  const auto line = 1 + std::count(deck.begin(), deck.begin() + static_cast<long>(at), '\n');
+  return "deck.toml:" + std::to_string(line) + ":" + std::to_string(at - line_start + 1) + ": ";
+}
+
+/// The messages of the InputError a deck throws; a test failure when it reads cleanly.
+std::vector<std::string> errors_of(std::string_view deck) {
+  try {
+    read_deck_string(deck, "deck.toml");
+  } catch (const InputError& e) {
+    return e.messages();
+  }
+  ADD_FAILURE() << "deck read without errors:\n" << deck;
+  return {};
+}
+
+std::string joined(const std::vector<std::string>& messages) {
+  std::string out;
+  for (const auto& m : messages)
+    out += m + "\n";
+  return out;
+}
+
+// A small valid deck; tests break one thing at a time.
+constexpr std::string_view kValid = R"(title = "two elements"
+[[materials]]
+name = "steel"
+E = 2.1e11
+nu = 0.3
+density = 7850.0
+
+[[sections]]
+name = "rod"
+shape = "circle"
+radius = 0.01
+material = "steel"
+
+[[sections]]
+name = "beam"
+EA = 1e4
+GA = 1e4
+EI = 1.0
+GJ = 1.0
+
+[nodes]
+coordinates = [[0, 0, 0], [0.5, 0, 0], [1, 0, 0], [1.5, 0, 0], [2, 0, 0]]
+
+[[elements]]
+connectivity = [[1, 2, 3], [3, 4, 5]]
+section = "beam"
+
+[[node_sets]]
+name = "clamp"
+nodes = [1]
+
+[[node_sets]]
+name = "tip"
+nodes = [5]
+
+[[constraints]]
+node_set = "clamp"
+dofs = "all"
+
+[[loads]]
+node_set = "tip"
+force = [0, -1, 0]
+
+[[steps]]
+type = "static"
+end_time = 1.0
+dt = 0.1
+dt_max = 0.2
+
+[[monitors]]
+name = "tip"
+node = 5
+)";
+
+std::string replace(std::string_view deck, std::string_view from, std::string_view to) {
+  std::string out(deck);
+  const auto at = out.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return out.replace(at, from.size(), to);
+}
+
+TEST(Deck, ValidDeckResolvesNamesAndLabelsToIndices) {
+  const Model m = read_deck_string(kValid, "deck.toml");
+  EXPECT_EQ(m.title, "two elements");
+  ASSERT_EQ(m.nodes.size(), 5u);
+  ASSERT_EQ(m.elements.size(), 2u);
+  EXPECT_EQ(m.elements[1].nodes, (std::array<int, 3>{2, 3, 4}));
+  EXPECT_EQ(m.elements[0].section, 1);
+  EXPECT_TRUE(m.node_labels.empty());
+  ASSERT_EQ(m.materials.size(), 1u);
+  EXPECT_NEAR(m.materials[0].shear, 2.1e11 / 2.6, 1e-3);
+  EXPECT_EQ(m.sections[0].shape, SectionShape::Circle);
+  EXPECT_NEAR(m.sections[0].EA, 2.1e11 * std::numbers::pi * 1e-4, 1e-3);
+  ASSERT_EQ(m.constraints.size(), 1u);
+  EXPECT_EQ(m.constraints[0].node_set, m.find_node_set("clamp"));
+  EXPECT_EQ(m.constraints[0].fixed, (std::array<bool, 6>{true, true, true, true, true, true}));
+  ASSERT_EQ(m.loads.size(), 1u);
+  EXPECT_EQ(m.loads[0].force, Eigen::Vector3d(0, -1, 0));
+  EXPECT_DOUBLE_EQ(m.loads[0].factor.at(0.7), 1.0);
+  ASSERT_EQ(m.steps.size(), 1u);
+  EXPECT_EQ(m.steps[0].type, StepType::Static);
+  EXPECT_DOUBLE_EQ(m.steps[0].dt_initial, 0.1);
+  EXPECT_DOUBLE_EQ(m.steps[0].dt_max, 0.2);
+  EXPECT_EQ(m.steps[0].max_iterations, 20);
+  ASSERT_EQ(m.monitors.size(), 1u);
+  EXPECT_EQ(m.monitors[0].type, MonitorType::Node);
+  EXPECT_EQ(m.monitors[0].target, 4);
+}
+
+class ExampleDeck : public testing::TestWithParam<const char*> {};
+
+TEST_P(ExampleDeck, Parses) {
+  const std::filesystem::path file = kExamples / GetParam();
+  try {
+    const Model m = read_deck(file);
+    EXPECT_FALSE(m.title.empty());
+    EXPECT_FALSE(m.elements.empty());
+    EXPECT_FALSE(m.steps.empty());
+    EXPECT_FALSE(m.monitors.empty());
+  } catch (const InputError& e) {
+    FAIL() << e.what();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Examples, ExampleDeck,
+                         testing::Values("rollup.toml", "rollup-ten-turns.toml", "elastica.toml",
+                                         "cantilever-vibration.toml", "flying-beam.toml"));
+
+TEST(Deck, RollupExampleHasTheVerificationCase) {
+  const Model m = read_deck(kExamples / "rollup.toml");
+  ASSERT_EQ(m.elements.size(), 16u);
+  ASSERT_EQ(m.nodes.size(), 33u);
+  EXPECT_NEAR((m.nodes.back() - Eigen::Vector3d(1, 0, 0)).norm(), 0, 1e-15);
+  const int tip = m.find_node_set("beam.end");
+  ASSERT_GE(tip, 0);
+  EXPECT_EQ(m.node_sets[static_cast<std::size_t>(tip)].nodes, std::vector<int>{32});
+  EXPECT_EQ(m.node_sets[static_cast<std::size_t>(m.find_node_set("beam"))].nodes.size(), 33u);
+  const Section& s = m.sections[static_cast<std::size_t>(m.elements[0].section)];
+  ASSERT_EQ(m.loads.size(), 1u);
+  EXPECT_NEAR(m.loads[0].moment.z(), 2 * std::numbers::pi * s.EI2 / 1.0, 1e-12);
+  EXPECT_DOUBLE_EQ(m.loads[0].factor.at(0.5), 0.5);
+  EXPECT_NEAR(m.steps[0].end_time / m.steps[0].dt_initial, 20, 1e-9);
+  EXPECT_EQ(m.monitors[0].target, 32);
+}
+
+TEST(Deck, FlyingBeamExampleHasTheVerificationCase) {
+  const Model m = read_deck(kExamples / "flying-beam.toml");
+  EXPECT_NEAR((m.nodes.back() - m.nodes.front()).norm(), 10, 1e-12);
+  const Section& s = m.sections[0];
+  EXPECT_EQ(s.rhoJ, Eigen::Vector3d(10, 10, 20));
+  EXPECT_TRUE(m.constraints.empty());
+  EXPECT_DOUBLE_EQ(m.loads[0].factor.at(2.5), 1.0);
+  EXPECT_DOUBLE_EQ(m.loads[0].factor.at(3.75), 0.5);
+  EXPECT_DOUBLE_EQ(m.loads[0].factor.at(20), 0.0);
+  EXPECT_EQ(m.steps[0].type, StepType::Dynamic);
+  EXPECT_DOUBLE_EQ(m.steps[0].newmark_beta, 0.25);
+  EXPECT_DOUBLE_EQ(m.steps[0].newmark_gamma, 0.5);
+}
+
+TEST(Deck, UnknownKeyIsReportedWithItsPositionAndASuggestion) {
+  const std::string deck = replace(kValid, "EA = 1e4", "EAA = 1e4");
+  const auto errors = errors_of(deck);
+  ASSERT_FALSE(errors.empty()) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "EAA") +
+                           "sections[1].EAA: unknown key 'EAA' in [[sections]]; did you mean "
+                           "'EA'?");
+}
+
+TEST(Deck, UnknownTopLevelTableIsReportedWithASuggestion) {
+  const std::string deck = replace(kValid, "[[monitors]]", "[[monitor]]");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0].rfind(where(deck, "monitor]]") + "monitor: unknown key 'monitor'", 0), 0u)
+      << errors[0];
+  EXPECT_NE(errors[0].find("did you mean 'monitors'?"), std::string::npos) << errors[0];
+}
+
+TEST(Deck, UnknownKeyWithoutACloseMatchListsTheKnownKeys) {
+  const std::string deck = replace(kValid, "nu = 0.3", "nu = 0.3\ncolour = \"grey\"");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_NE(errors[0].find("known keys: name, E, nu, G, density"), std::string::npos) << errors[0];
+}
+
+TEST(Deck, WrongTypeNamesExpectedAndFound) {
+  const std::string deck = replace(kValid, "EA = 1e4", "EA = \"1e4\"");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"1e4\"") +
+                           "sections[1].EA: expected a number > 0, found a string \"1e4\"");
+}
+
+TEST(Deck, NegativeStiffnessIsOutOfRange) {
+  const std::string deck = replace(kValid, "EI = 1.0", "EI = -1.0");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "-1.0") + "sections[1].EI: expected a number > 0, found -1.0");
+}
+
+TEST(Deck, ReferenceToAMissingNodeNamesTheLabel) {
+  const std::string deck = replace(kValid, "[3, 4, 5]]", "[3, 4, 9]]");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "9]]") +
+                           "elements[0].connectivity[1][2]: no node labelled 9 (nodes are "
+                           "labelled 1 to 5)");
+}
+
+TEST(Deck, ReferenceToAMissingNodeSetNamesTheSetAndSuggests) {
+  const std::string deck = replace(kValid, "node_set = \"tip\"", "node_set = \"tipp\"");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"tipp\"") +
+                           "loads[0].node_set: no node set named 'tipp'; did you mean 'tip'?");
+}
+
+TEST(Deck, ReferencesToMissingSectionsAndMaterialsAreNamed) {
+  std::string deck = replace(kValid, "section = \"beam\"", "section = \"girder\"");
+  deck = replace(deck, "material = \"steel\"", "material = \"wood\"");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 2u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"wood\"") +
+                           "sections[0].material: no material named 'wood' (defined: steel)");
+  EXPECT_EQ(errors[1], where(deck, "\"girder\"") +
+                           "elements[0].section: no section named 'girder' (defined: rod, beam)");
+}
+
+TEST(Deck, AllErrorsAreReportedAtOnceInFileOrder) {
+  std::string deck = replace(kValid, "density = 7850.0", "density = 0.0");
+  deck = replace(deck, "GJ = 1.0", "GJJ = 1.0");
+  deck = replace(deck, "node = 5", "node = 6");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 3u) << joined(errors);
+  EXPECT_EQ(errors[0],
+            where(deck, "0.0\n") + "materials[0].density: expected a number > 0, found 0.0");
+  EXPECT_EQ(errors[1], where(deck, "GJJ") +
+                           "sections[1].GJJ: unknown key 'GJJ' in [[sections]]; did you mean "
+                           "'GJ'?");
+  // The misspelt key is not reported a second time as a missing 'GJ'.
+  EXPECT_EQ(errors[2], where(deck, "6\n") +
+                           "monitors[0].node: no node labelled 6 (nodes are labelled 1 to 5)");
+}
+
+TEST(Deck, ThreeIndependentErrorsGiveThreeMessages) {
+  std::string deck = replace(kValid, "nu = 0.3", "nu = 0.7");
+  deck = replace(deck, "dofs = \"all\"", "dofs = [\"ux\", \"uyy\"]");
+  deck = replace(deck, "type = \"static\"", "type = 1");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 3u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "0.7") + "materials[0].nu: expected a number in (-1, 0.5], "
+                                            "found 0.7");
+  EXPECT_EQ(errors[1], where(deck, "\"uyy\"") +
+                           "constraints[0].dofs[1]: expected \"all\", \"translations\", "
+                           "\"rotations\" or DOF names \"ux\", \"uy\", \"uz\", \"rx\", \"ry\", "
+                           "\"rz\", found \"uyy\"; did you mean \"uy\"?");
+  EXPECT_EQ(errors[2], where(deck, "1\nend_time") + "steps[0].type: expected a string, found an "
+                                                    "integer (1)");
+}
+
+TEST(Deck, SyntaxErrorHasAPosition) {
+  const std::string deck = replace(kValid, "E = 2.1e11", "E = = 2.1e11");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0].rfind("deck.toml:4:5: syntax error", 0), 0u) << errors[0];
+}
+
+TEST(Deck, StepLimitsAndNewmarkAreChecked) {
+  std::string deck = replace(kValid, "dt_max = 0.2", "dt_max = 0.2\ndt_min = 0.5");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0],
+            where(deck, "0.5\n") + "steps[0].dt_min: expected dt_min <= dt_max (0.2), found 0.5");
+
+  deck = replace(kValid, "type = \"static\"",
+                 "type = \"dynamic\"\nnewmark = { beta = 0.6, gamma = 0.5 }");
+  deck = replace(deck, "GJ = 1.0", "GJ = 1.0\nrhoA = 1.0");
+  const auto beta = errors_of(deck);
+  ASSERT_EQ(beta.size(), 1u) << joined(beta);
+  EXPECT_EQ(beta[0],
+            where(deck, "0.6") + "steps[0].newmark.beta: expected a number in (0, 0.5], found 0.6");
+
+  deck = replace(kValid, "dt_max = 0.2", "dt_max = 0.2\nnewmark = { beta = 0.25 }");
+  const auto static_newmark = errors_of(deck);
+  ASSERT_EQ(static_newmark.size(), 1u) << joined(static_newmark);
+  EXPECT_NE(static_newmark[0].find("'newmark' applies only to type = \"dynamic\""),
+            std::string::npos);
+}
+
+TEST(Deck, StepsMustFollowEachOtherInTime) {
+  const std::string deck = std::string(kValid) + R"(
+[[steps]]
+type = "static"
+end_time = 0.5
+dt = 0.1
+)";
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "0.5\n") +
+                           "steps[1].end_time: expected an end time > 1 (the end of steps[0]; "
+                           "times are absolute), found 0.5");
+}
+
+TEST(Deck, TimeTableMustIncrease) {
+  const std::string deck =
+      replace(kValid, "force = [0, -1, 0]", "force = [0, -1, 0]\ntable = [[0, 0], [1, 1], [1, 2]]");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "1, 2]") +
+                           "loads[0].table[2][0]: expected a time > 1.0 (times must increase), "
+                           "found 1.0");
+}
+
+TEST(Deck, DynamicStepNeedsMass) {
+  const std::string deck = replace(kValid, "type = \"static\"", "type = \"dynamic\"");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "[[sections]]", 1) +
+                           "sections[1].rhoA: expected rhoA > 0 (mass per length, kg/m) because "
+                           "steps[0] is dynamic, found 0");
+}
+
+TEST(Deck, SectionFormsCannotBeMixed) {
+  const std::string deck = replace(kValid, "radius = 0.01", "radius = 0.01\nEA = 5.0");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_NE(errors[0].find("sections[0]: give either stiffnesses"), std::string::npos) << errors[0];
+}
+
+TEST(Deck, MonitorNeedsExactlyOneTarget) {
+  const std::string deck = replace(kValid, "node = 5", "node = 5\nelement = 1");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_NE(errors[0].find("monitors[0]: expected exactly one of 'node', 'node_set', 'element', "
+                           "found node, element"),
+            std::string::npos)
+      << errors[0];
+}
+
+TEST(Deck, ExplicitNodeIdsFillNodeLabels) {
+  std::string deck = replace(kValid, R"([nodes]
+coordinates = [[0, 0, 0], [0.5, 0, 0], [1, 0, 0], [1.5, 0, 0], [2, 0, 0]])",
+                             R"([[nodes]]
+id = 10
+position = [0, 0, 0]
+[[nodes]]
+id = 20
+position = [0.5, 0, 0]
+[[nodes]]
+id = 30
+position = [1, 0, 0]
+[[nodes]]
+id = 40
+position = [1.5, 0, 0]
+[[nodes]]
+id = 50
+position = [2, 0, 0])");
+  deck = replace(deck, "[[1, 2, 3], [3, 4, 5]]", "[[10, 20, 30], [30, 40, 50]]");
+  deck = replace(deck, "nodes = [1]", "nodes = [10]");
+  deck = replace(deck, "nodes = [5]", "nodes = [50]");
+  deck = replace(deck, "node = 5", "node = 50");
+  deck += R"(
+[[lines]]
+name = "extra"
+from = [0, 1, 0]
+to = [1, 1, 0]
+elements = 1
+section = "rod"
+)";
+  const Model m = read_deck_string(deck, "deck.toml");
+  ASSERT_EQ(m.node_labels.size(), 8u);
+  EXPECT_EQ(m.node_labels[1], 20);
+  EXPECT_EQ(m.node_labels[5], 51); // generated nodes continue after the largest id
+  EXPECT_EQ(m.monitors[0].target, 4);
+  EXPECT_EQ(m.elements.size(), 3u);
+  EXPECT_EQ(m.elements[2].section, 0);
+}
+
+TEST(Deck, LinesMakeNodesElementsAndNodeSets) {
+  const Model m = read_deck_string(R"(
+title = "line"
+[[sections]]
+name = "s"
+EA = 1.0
+GA1 = 1.0
+GA2 = 2.0
+EI1 = 1.0
+EI2 = 3.0
+GJ = 1.0
+[[lines]]
+name = "yarn"
+from = [0, 0, 0]
+to = [0, 0, 2]
+elements = 2
+section = "s"
+reference_vector = [2, 0, 0]
+[[steps]]
+type = "static"
+end_time = 1
+dt = 1
+[[monitors]]
+name = "mid"
+element = 2
+)",
+                                   "deck.toml");
+  ASSERT_EQ(m.nodes.size(), 5u);
+  EXPECT_EQ(m.nodes[3], Eigen::Vector3d(0, 0, 1.5));
+  ASSERT_EQ(m.elements.size(), 2u);
+  EXPECT_EQ(m.elements[1].nodes, (std::array<int, 3>{2, 3, 4}));
+  EXPECT_EQ(m.elements[1].reference_vector, Eigen::Vector3d(1, 0, 0));
+  EXPECT_EQ(m.node_sets[static_cast<std::size_t>(m.find_node_set("yarn.end"))].nodes,
+            std::vector<int>{4});
+  EXPECT_DOUBLE_EQ(m.sections[0].GA2, 2.0);
+  EXPECT_DOUBLE_EQ(m.sections[0].EI2, 3.0);
+  EXPECT_EQ(m.monitors[0].type, MonitorType::Element);
+  EXPECT_EQ(m.monitors[0].target, 1);
+}
+
+TEST(Deck, DefaultReferenceVectorParallelToTheLineIsReported) {
+  const std::string deck = R"(title = "t"
+[[sections]]
+name = "s"
+EA = 1.0
+GA = 1.0
+EI = 1.0
+GJ = 1.0
+[[lines]]
+name = "yarn"
+from = [0, 0, 0]
+to = [0, 3, 0]
+elements = 2
+section = "s"
+[[steps]]
+type = "static"
+end_time = 1
+dt = 1
+)";
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_NE(errors[0].find("lines[0].reference_vector: expected a vector not parallel to the axis "
+                           "of the line [0, 1, 0], found [0, 1, 0] (the default)"),
+            std::string::npos)
+      << errors[0];
+}
+
+TEST(Deck, ReadDeckReportsTheFileName) {
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / "yarnsim_test_deck_bad.toml";
+  {
+    std::ofstream out(file);
+    out << replace(kValid, "EA = 1e4", "EA = -1e4");
+  }
+  try {
+    read_deck(file);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    ASSERT_EQ(e.messages().size(), 1u) << e.what();
+    EXPECT_EQ(e.messages()[0].rfind(file.string() + ":16:6: sections[1].EA:", 0), 0u) << e.what();
+  }
+  std::filesystem::remove(file);
+  EXPECT_THROW(read_deck(file), InputError);
+}
+
+// The study's elliptical yarn section (formulation.md §1): a = 1.136364 mm, b = 0.2840909 mm,
+// EA = 38 000 N, nu = 0.2, the lower moment of inertia (about axis 1, a > b) times 0.1.
+TEST(SectionFromShape, ReproducesThePapersEllipticalYarn) {
+  const double a = 1.136364e-3;
+  const double b = 0.2840909e-3;
+  const double area = std::numbers::pi * a * b;
+  Material glass{"glass", 38000 / area, 0, 2540};
+  glass.shear = glass.young / (2 * (1 + 0.2));
+  const Section s =
+      section_from_shape("yarn", SectionShape::Ellipse, a, b, 2, glass, 0.1, 1.0, 5.0 / 6.0);
+  EXPECT_NEAR(s.EA, 38000, 1e-6);
+  EXPECT_NEAR(s.EI1, 7.67e-5, 0.005e-5);
+  EXPECT_NEAR(s.EI2, 1.23e-2, 0.005e-2);
+  EXPECT_NEAR(s.GJ, 1.20e-3, 0.005e-3);
+  EXPECT_NEAR(s.rhoA, 2.576e-3, 0.0005e-3);
+}
+
+TEST(SectionFromShape, DeckShapeFormMatchesTheFunction) {
+  const Model m = read_deck_string(R"(title = "yarn"
+[[materials]]
+name = "glass"
+E = 3.7469e10
+nu = 0.2
+density = 2540
+[[sections]]
+name = "yarn"
+shape = "ellipse"
+a = 1.136364e-3
+b = 0.2840909e-3
+material = "glass"
+reduce_I1 = 0.1
+[[lines]]
+name = "yarn"
+from = [0, 0, 0]
+to = [0.04, 0, 0]
+elements = 4
+section = "yarn"
+[[steps]]
+type = "static"
+end_time = 1
+dt = 0.1
+)",
+                                   "deck.toml");
+  const Section expected = section_from_shape("yarn", SectionShape::Ellipse, 1.136364e-3,
+                                              0.2840909e-3, 2, m.materials[0], 0.1, 1, 5.0 / 6.0);
+  EXPECT_DOUBLE_EQ(m.sections[0].EI1, expected.EI1);
+  EXPECT_DOUBLE_EQ(m.sections[0].GJ, expected.GJ);
+  EXPECT_DOUBLE_EQ(m.sections[0].GA1, expected.GA1);
+  EXPECT_NEAR(m.sections[0].EI1, 7.67e-5, 0.005e-5);
+}
+
+TEST(SectionFromShape, SuperEllipseAreaTendsToTheBoundingRectangle) {
+  const Material mat{"m", 1, 0.5, 1};
+  const double a = 2;
+  const double b = 0.5;
+  const double ellipse =
+      section_from_shape("s", SectionShape::SuperEllipse, a, b, 2, mat, 1, 1, 1).EA;
+  EXPECT_NEAR(ellipse, std::numbers::pi * a * b, 1e-12);
+  double previous = ellipse;
+  for (double m : {4.0, 10.0, 100.0, 1000.0}) {
+    const double area =
+        section_from_shape("s", SectionShape::SuperEllipse, a, b, m, mat, 1, 1, 1).EA;
+    EXPECT_GT(area, previous);
+    EXPECT_LT(area, 4 * a * b);
+    previous = area;
+  }
+  EXPECT_NEAR(previous, 4 * a * b, 4 * a * b * 2e-3);
+}
+
+} // namespace
+} // namespace yarnsim

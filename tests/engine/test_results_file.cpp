@@ -1,0 +1,401 @@
+// Results output: results.h5 read back with the plain HDF5 C API, results.xdmf checked as XML,
+// the "flushed as steps complete" guarantee, and CSV histories.
+
+#include "engine/output/csv_writer.hpp"
+#include "engine/output/results_file.hpp"
+
+#include <gtest/gtest.h>
+#include <hdf5.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+using yarnsim::output::ContactPoints;
+using yarnsim::output::CsvWriter;
+using yarnsim::output::Mesh;
+using yarnsim::output::ResultsFile;
+using yarnsim::output::RunMetadata;
+using yarnsim::output::StepResults;
+
+/// A fresh directory per test, removed afterwards.
+class ResultsDir : public ::testing::Test {
+protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir = fs::temp_directory_path() /
+          (std::string("yarnsim_") + info->test_suite_name() + "_" + info->name() + "_" +
+           std::to_string(::getpid()));
+    fs::remove_all(dir);
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  fs::path dir;
+};
+
+// ---- reading back with the HDF5 C API only (not the writer's wrapper) ----
+
+struct Array {
+  std::vector<hsize_t> dims;
+  std::vector<double> values;
+};
+
+Array read_array(hid_t file, const std::string& path) {
+  Array a;
+  const hid_t dataset = H5Dopen2(file, path.c_str(), H5P_DEFAULT);
+  EXPECT_GE(dataset, 0) << path;
+  if (dataset < 0)
+    return a;
+  const hid_t space = H5Dget_space(dataset);
+  const int rank = H5Sget_simple_extent_ndims(space);
+  a.dims.resize(rank);
+  H5Sget_simple_extent_dims(space, a.dims.data(), nullptr);
+  hsize_t n = 1;
+  for (hsize_t d : a.dims)
+    n *= d;
+  a.values.resize(n);
+  if (n > 0) {
+    EXPECT_GE(H5Dread(dataset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.values.data()),
+              0);
+  }
+  H5Sclose(space);
+  H5Dclose(dataset);
+  return a;
+}
+
+std::string read_string_attribute(hid_t object, const std::string& name) {
+  const hid_t attribute = H5Aopen(object, name.c_str(), H5P_DEFAULT);
+  EXPECT_GE(attribute, 0) << name;
+  if (attribute < 0)
+    return {};
+  const hid_t type = H5Aget_type(attribute);
+  EXPECT_EQ(H5Tget_class(type), H5T_STRING);
+  EXPECT_GT(H5Tis_variable_str(type), 0);
+  char* text = nullptr;
+  EXPECT_GE(H5Aread(attribute, type, &text), 0);
+  std::string result = text ? text : "";
+  H5free_memory(text);
+  H5Tclose(type);
+  H5Aclose(attribute);
+  return result;
+}
+
+double read_number_attribute(hid_t object, const std::string& name) {
+  const hid_t attribute = H5Aopen(object, name.c_str(), H5P_DEFAULT);
+  EXPECT_GE(attribute, 0) << name;
+  double value = -1;
+  if (attribute >= 0) {
+    EXPECT_GE(H5Aread(attribute, H5T_NATIVE_DOUBLE, &value), 0);
+    H5Aclose(attribute);
+  }
+  return value;
+}
+
+hid_t open_read_only(const fs::path& file) {
+  const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+  H5Pset_file_locking(fapl, false, true);
+  const hid_t id = H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl);
+  H5Pclose(fapl);
+  return id;
+}
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1))
+    ++n;
+  return n;
+}
+
+/// Light well-formedness check: every element closes in order. Returns "" or what is wrong.
+std::string xml_nesting_error(const std::string& xml) {
+  std::vector<std::string> open;
+  for (auto lt = xml.find('<'); lt != std::string::npos; lt = xml.find('<', lt + 1)) {
+    const auto gt = xml.find('>', lt);
+    if (gt == std::string::npos)
+      return "unterminated tag";
+    const std::string tag = xml.substr(lt + 1, gt - lt - 1);
+    if (tag.starts_with("?") || tag.starts_with("!"))
+      continue;
+    if (tag.starts_with("/")) {
+      if (open.empty() || open.back() != tag.substr(1))
+        return "unexpected </" + tag.substr(1) + ">";
+      open.pop_back();
+    } else if (!tag.ends_with("/")) {
+      open.push_back(tag.substr(0, tag.find_first_of(" \n")));
+    }
+  }
+  return open.empty() ? "" : "unclosed <" + open.back() + ">";
+}
+
+// ---- a small model: 5 nodes, two 3-node elements ----
+
+constexpr int kNodes = 5;
+constexpr int kElements = 2;
+
+Mesh test_mesh() {
+  Mesh mesh;
+  mesh.reference_positions.resize(3, kNodes);
+  for (int i = 0; i < kNodes; ++i)
+    mesh.reference_positions.col(i) << 0.001 * i, 0.0, 0.0002 * i;
+  mesh.elements = {{0, 1, 2}, {2, 3, 4}};
+  mesh.node_radius = Eigen::VectorXd::LinSpaced(kNodes, 1e-4, 2e-4);
+  return mesh;
+}
+
+RunMetadata test_metadata() {
+  return {"[model]\ntitle = \"plain weave\"\n", "decks/plain.toml", "0.1.0-test", 4};
+}
+
+/// Step k: every value is distinct, so a transposed or misplaced array shows up.
+StepResults test_step(int k) {
+  const Mesh mesh = test_mesh();
+  StepResults s;
+  s.increment = 10 * (k + 1);
+  s.time = 0.25 * (k + 1);
+  s.positions = mesh.reference_positions;
+  s.positions.row(2).array() += 1e-5 * (k + 1);
+  s.rotations.resize(3, kNodes);
+  s.reactions.resize(6, kNodes);
+  for (int i = 0; i < kNodes; ++i)
+    for (int r = 0; r < 6; ++r) {
+      if (r < 3)
+        s.rotations(r, i) = 0.01 * (k + 1) + 0.001 * i + 0.0001 * r;
+      s.reactions(r, i) = 1000.0 * k + 10.0 * i + r;
+    }
+  s.section_resultants.resize(6, 2 * kElements);
+  for (int c = 0; c < 2 * kElements; ++c)
+    for (int r = 0; r < 6; ++r)
+      s.section_resultants(r, c) = -1000.0 * k - 10.0 * c - r;
+  const int n_contacts = k; // none in the first step
+  s.contacts.position = Eigen::Matrix3Xd::Constant(3, n_contacts, 0.5e-3);
+  s.contacts.normal = Eigen::Matrix3Xd::Zero(3, n_contacts);
+  s.contacts.normal.row(2).setOnes();
+  s.contacts.gap = Eigen::VectorXd::Constant(n_contacts, -1e-6 * (k + 1));
+  s.contacts.force = Eigen::VectorXd::LinSpaced(n_contacts, 0.5, 0.5 * n_contacts);
+  s.scalars = {{"iterations", 3.0 + k}, {"active_contacts", n_contacts}};
+  return s;
+}
+
+/// Expects a dataset of shape (rows, cols) holding the node-major transpose of m.
+template <class Matrix>
+void expect_node_major(hid_t file, const std::string& path, const Matrix& m) {
+  SCOPED_TRACE(path);
+  const Array a = read_array(file, path);
+  ASSERT_EQ(a.dims, (std::vector<hsize_t>{hsize_t(m.cols()), hsize_t(m.rows())}));
+  for (Eigen::Index i = 0; i < m.cols(); ++i)
+    for (Eigen::Index r = 0; r < m.rows(); ++r)
+      ASSERT_EQ(a.values[i * m.rows() + r], m(r, i)) << "row " << i << ", column " << r;
+}
+
+TEST_F(ResultsDir, MeshAndMetadataAreWrittenOnConstruction) {
+  const Mesh mesh = test_mesh();
+  const RunMetadata meta = test_metadata();
+  ResultsFile results(dir, mesh, meta);
+  EXPECT_EQ(results.steps_written(), 0);
+  EXPECT_TRUE(fs::exists(dir / "results.xdmf"));
+
+  const hid_t file = open_read_only(dir / "results.h5");
+  ASSERT_GE(file, 0);
+  EXPECT_EQ(read_string_attribute(file, "deck_text"), meta.deck_text);
+  EXPECT_EQ(read_string_attribute(file, "deck_path"), meta.deck_path);
+  EXPECT_EQ(read_string_attribute(file, "version"), meta.version);
+  EXPECT_EQ(read_number_attribute(file, "threads"), 4);
+  EXPECT_EQ(read_string_attribute(file, "status"), "running");
+
+  expect_node_major(file, "/mesh/reference_positions", mesh.reference_positions);
+  const Array radius = read_array(file, "/mesh/node_radius");
+  EXPECT_EQ(radius.dims, std::vector<hsize_t>{kNodes});
+  EXPECT_EQ(Eigen::Map<const Eigen::VectorXd>(radius.values.data(), kNodes), mesh.node_radius);
+  const Array elements = read_array(file, "/mesh/elements");
+  EXPECT_EQ(elements.dims, (std::vector<hsize_t>{kElements, 3}));
+  EXPECT_EQ(elements.values, (std::vector<double>{0, 1, 2, 2, 3, 4}));
+  const Array segments = read_array(file, "/mesh/segments");
+  EXPECT_EQ(segments.dims, (std::vector<hsize_t>{2 * kElements, 2}));
+  EXPECT_EQ(segments.values, (std::vector<double>{0, 1, 1, 2, 2, 3, 3, 4}));
+  H5Fclose(file);
+}
+
+TEST_F(ResultsDir, EveryStepIsWrittenNodeMajorWithDisplacementAndSectionResultants) {
+  const Mesh mesh = test_mesh();
+  {
+    ResultsFile results(dir, mesh, test_metadata());
+    for (int k = 0; k < 3; ++k)
+      results.write_step(test_step(k));
+    EXPECT_EQ(results.steps_written(), 3);
+    results.close("completed", "");
+  }
+  const hid_t file = open_read_only(dir / "results.h5");
+  ASSERT_GE(file, 0);
+  for (int k = 0; k < 3; ++k) {
+    const StepResults s = test_step(k);
+    const std::string step = "/steps/00000" + std::to_string(k);
+    SCOPED_TRACE(step);
+    const hid_t group = H5Gopen2(file, step.c_str(), H5P_DEFAULT);
+    ASSERT_GE(group, 0);
+    EXPECT_EQ(read_number_attribute(group, "increment"), s.increment);
+    EXPECT_EQ(read_number_attribute(group, "time"), s.time);
+    EXPECT_EQ(read_number_attribute(group, "iterations"), 3.0 + k);
+    EXPECT_EQ(read_number_attribute(group, "active_contacts"), k);
+    H5Gclose(group);
+
+    expect_node_major(file, step + "/positions", s.positions);
+    const Eigen::Matrix3Xd displacement = s.positions - mesh.reference_positions;
+    expect_node_major(file, step + "/displacement", displacement);
+    expect_node_major(file, step + "/rotations", s.rotations);
+    expect_node_major(file, step + "/reaction_force", s.reactions.topRows<3>());
+    expect_node_major(file, step + "/reaction_moment", s.reactions.bottomRows<3>());
+    // Row 2e+k: Gauss point k of element e, the cell of segment 2e+k.
+    expect_node_major(file, step + "/section_force", s.section_resultants.topRows<3>());
+    expect_node_major(file, step + "/section_moment", s.section_resultants.bottomRows<3>());
+
+    expect_node_major(file, step + "/contacts/position", s.contacts.position);
+    expect_node_major(file, step + "/contacts/normal", s.contacts.normal);
+    const Array gap = read_array(file, step + "/contacts/gap");
+    EXPECT_EQ(gap.dims, std::vector<hsize_t>{hsize_t(k)});
+    EXPECT_EQ(std::vector<double>(s.contacts.gap.begin(), s.contacts.gap.end()), gap.values);
+    const Array force = read_array(file, step + "/contacts/force");
+    EXPECT_EQ(std::vector<double>(s.contacts.force.begin(), s.contacts.force.end()),
+              force.values);
+  }
+  H5Fclose(file);
+}
+
+TEST_F(ResultsDir, XdmfListsEveryStepOverTheSharedSegments) {
+  ResultsFile results(dir, test_mesh(), test_metadata());
+  for (int k = 0; k < 3; ++k)
+    results.write_step(test_step(k));
+
+  const std::string xml = read_text(dir / "results.xdmf");
+  EXPECT_EQ(xml_nesting_error(xml), "");
+  EXPECT_FALSE(fs::exists(dir / "results.xdmf.tmp"));
+  EXPECT_EQ(count(xml, "CollectionType=\"Temporal\""), 1u);
+  EXPECT_EQ(count(xml, "<Time "), 3u);
+  EXPECT_NE(xml.find("<Time Value=\"0.25\"/>"), std::string::npos);
+  EXPECT_NE(xml.find("<Time Value=\"0.75\"/>"), std::string::npos);
+  EXPECT_EQ(count(xml, "TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"4\""),
+            3u);
+  EXPECT_EQ(count(xml, "results.h5:/mesh/segments"), 3u);
+  EXPECT_NE(xml.find("Dimensions=\"5 3\" NumberType=\"Float\" Precision=\"8\" "
+                     "Format=\"HDF\">results.h5:/steps/000002/positions"),
+            std::string::npos);
+  for (const char* name : {"displacement", "rotation", "reaction_force", "reaction_moment",
+                           "radius", "section_force", "section_moment"})
+    EXPECT_EQ(count(xml, std::string("Attribute Name=\"") + name + "\""), 3u) << name;
+  EXPECT_EQ(count(xml, "Center=\"Cell\""), 6u);
+  // Contacts only in the steps that have some (steps 1 and 2).
+  EXPECT_EQ(count(xml, "<Grid Name=\"contacts\""), 2u);
+  EXPECT_EQ(xml.find("/steps/000000/contacts"), std::string::npos);
+  EXPECT_NE(xml.find("results.h5:/steps/000002/contacts/normal"), std::string::npos);
+}
+
+TEST_F(ResultsDir, CloseRecordsStatusAndMessage) {
+  {
+    ResultsFile results(dir, test_mesh(), test_metadata());
+    results.write_step(test_step(0));
+    results.close("failed: Newton did not converge", "increment 10, residual 3.2e-2 > 1e-4");
+    EXPECT_THROW(results.write_step(test_step(1)), std::logic_error);
+    results.close("completed", ""); // no effect after the first close
+  }
+  const hid_t file = open_read_only(dir / "results.h5");
+  ASSERT_GE(file, 0);
+  EXPECT_EQ(read_string_attribute(file, "status"), "failed: Newton did not converge");
+  EXPECT_EQ(read_string_attribute(file, "message"), "increment 10, residual 3.2e-2 > 1e-4");
+  H5Fclose(file);
+}
+
+TEST_F(ResultsDir, StepsAreOnDiskWhileTheWriterIsStillOpen) {
+  ResultsFile results(dir, test_mesh(), test_metadata());
+  results.write_step(test_step(0));
+  results.write_step(test_step(1));
+
+  // What another process would see now: a byte copy of the file as it is on disk.
+  const fs::path copy = dir / "copy.h5";
+  fs::copy_file(dir / "results.h5", copy);
+  for (const fs::path& path : {copy, dir / "results.h5"}) {
+    SCOPED_TRACE(path);
+    const hid_t file = open_read_only(path);
+    ASSERT_GE(file, 0);
+    EXPECT_EQ(read_string_attribute(file, "status"), "running");
+    expect_node_major(file, "/steps/000000/positions", test_step(0).positions);
+    expect_node_major(file, "/steps/000001/section_moment",
+                      test_step(1).section_resultants.bottomRows<3>());
+    EXPECT_EQ(H5Lexists(file, "/steps/000002", H5P_DEFAULT), 0);
+    H5Fclose(file);
+  }
+  EXPECT_EQ(count(read_text(dir / "results.xdmf"), "<Time "), 2u);
+}
+
+TEST_F(ResultsDir, LongDeckTextIsKeptWhole) {
+  RunMetadata meta = test_metadata();
+  meta.deck_text = std::string(200000, 'x') + "\nend";
+  { ResultsFile results(dir, test_mesh(), meta); }
+  const hid_t file = open_read_only(dir / "results.h5");
+  ASSERT_GE(file, 0);
+  EXPECT_EQ(read_string_attribute(file, "deck_text"), meta.deck_text);
+  H5Fclose(file);
+}
+
+TEST_F(ResultsDir, ArraysThatDoNotMatchTheMeshAreRejected) {
+  Mesh bad = test_mesh();
+  bad.elements.push_back({4, 5, 6});
+  EXPECT_THROW(ResultsFile(dir, bad, test_metadata()), std::invalid_argument);
+
+  ResultsFile results(dir, test_mesh(), test_metadata());
+  StepResults s = test_step(1);
+  s.section_resultants.resize(6, kElements);
+  EXPECT_THROW(results.write_step(s), std::invalid_argument);
+  s = test_step(2);
+  s.contacts.gap.resize(1);
+  EXPECT_THROW(results.write_step(s), std::invalid_argument);
+  s = test_step(0);
+  s.scalars.emplace_back("time", 1.0);
+  EXPECT_THROW(results.write_step(s), std::invalid_argument);
+  EXPECT_EQ(results.steps_written(), 0);
+}
+
+TEST_F(ResultsDir, CsvHeaderAndEachRowAreOnDiskWhenTheCallReturns) {
+  const fs::path path = dir / "monitors" / "tip.csv";
+  CsvWriter csv(path, {"time [s]", "x [m]", "force [N]"});
+  EXPECT_EQ(read_text(path), "time [s],x [m],force [N]\n");
+  const std::vector<double> first{0.1, 1e-3, -2.5};
+  csv.row(first);
+  EXPECT_EQ(read_text(path), "time [s],x [m],force [N]\n0.1,0.001,-2.5\n");
+  const std::vector<double> second{0.2, 1.0 / 3.0, 0};
+  csv.row(second);
+  EXPECT_EQ(read_text(path),
+            "time [s],x [m],force [N]\n0.1,0.001,-2.5\n0.2,0.3333333333333333,0\n");
+  const std::vector<double> short_row{0.3};
+  EXPECT_THROW(csv.row(short_row), std::invalid_argument);
+  EXPECT_THROW(CsvWriter(dir / "bad.csv", {"a,b"}), std::invalid_argument);
+}
+
+#if defined(YARNSIM_SOURCE_DIR)
+TEST_F(ResultsDir, ParaViewOpensTheResultsWhileTheRunWrites) {
+  if (std::system("command -v pvpython > /dev/null 2>&1") != 0)
+    GTEST_SKIP() << "pvpython not installed";
+  ResultsFile results(dir, test_mesh(), test_metadata());
+  results.write_step(test_step(0));
+  results.write_step(test_step(2));
+  const fs::path log = dir / "check-xdmf.log";
+  const std::string command = std::string(YARNSIM_SOURCE_DIR) + "/scripts/check-xdmf " +
+                              (dir / "results.xdmf").string() + " > " + log.string() + " 2>&1";
+  EXPECT_EQ(std::system(command.c_str()), 0) << read_text(log);
+  const std::string out = read_text(log);
+  EXPECT_EQ(count(out, "time steps: 2"), 2u) << out; // once per reader
+}
+#endif
+
+} // namespace

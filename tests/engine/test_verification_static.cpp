@@ -1,0 +1,86 @@
+// Single-beam static cases of shared/docs/verification.md: roll-up (exact), ten turns, elastica;
+// Newton's quadratic convergence.
+#include "beam_models.hpp"
+#include "engine/solver/simulation.hpp"
+
+#include <gtest/gtest.h>
+#include <cmath>
+#include <fmt/format.h>
+
+namespace yarnsim {
+namespace {
+
+using test::clamp;
+using test::static_step;
+using test::stiffness_section;
+using test::straight_beam;
+
+struct Recorder : SimulationObserver {
+  std::vector<IncrementReport> reports;
+  void on_increment(const Simulation&, const IncrementReport& r) override { reports.push_back(r); }
+};
+
+/// Cantilever along x of length L clamped at 0 under a tip moment about z ramped to M.
+Model rollup(double L, int n, double EA, double EI, double M, double dt) {
+  Model m = straight_beam({0, 0, 0}, {L, 0, 0}, n, stiffness_section(EA, EA, EI, EI));
+  m.constraints.push_back(clamp(1));
+  m.loads.push_back(NodalLoad{2, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, M), false,
+                              TimeTable::ramp(1.0)});
+  m.steps.push_back(static_step(1.0, dt));
+  return m;
+}
+
+TEST(VerificationStatic, RollUpMatchesTheExactArcAtEveryLambda) {
+  const double L = 1.0, EI = 1.0;
+  for (const double lambda : {0.125, 0.25, 0.5, 0.75, 1.0}) {
+    const double M = lambda * 2 * std::numbers::pi * EI / L;
+    const Model m = rollup(L, 32, 1e4, EI, M, 0.1);
+    Simulation sim(m);
+    sim.run();
+    const double phi = 2 * std::numbers::pi * lambda;
+    const Eigen::Vector3d tip = sim.state().x_n.col(m.nodes.size() - 1);
+    const double x_exact = std::sin(phi) / phi, y_exact = (1 - std::cos(phi)) / phi;
+    EXPECT_NEAR(tip.x() / L, x_exact, 1e-6) << "lambda " << lambda;
+    EXPECT_NEAR(tip.y() / L, y_exact, 1e-6) << "lambda " << lambda;
+    EXPECT_NEAR(sim.state().rotation_n(2, m.nodes.size() - 1), phi, 1e-8) << "lambda " << lambda;
+  }
+}
+
+TEST(VerificationStatic, TenTurnsBringTheTipBackToTheClamp) {
+  // verification.md: L = 10, EA = GA = 1e4, EI = GJ = 1e2, M = 200 pi.
+  const double L = 10;
+  const Model m = rollup(L, 80, 1e4, 1e2, 200 * std::numbers::pi, 0.01);
+  Simulation sim(m);
+  sim.run();
+  const Eigen::Vector3d tip = sim.state().x_n.col(m.nodes.size() - 1);
+  EXPECT_LT(tip.norm() / L, 1e-6) << "tip at " << tip.transpose();
+  EXPECT_NEAR(sim.state().rotation_n(2, m.nodes.size() - 1), 20 * std::numbers::pi, 1e-6);
+}
+
+TEST(VerificationStatic, NewtonConvergesQuadraticallyOnTheRollUp) {
+  // lambda = 1 in 20 increments; the energy norm |delta . r| of each correction, relative to the
+  // first, must fall quadratically: log(e_{k+1}) / log(e_k) close to 2 once e_k is small.
+  const Model m = rollup(1.0, 16, 1e4, 1.0, 2 * std::numbers::pi, 0.05);
+  Simulation sim(m);
+  Recorder rec;
+  sim.run(&rec);
+  ASSERT_EQ(rec.reports.size(), 20u);
+  for (const IncrementReport& r : rec.reports) {
+    ASSERT_GE(r.energy_history.size(), 3u);
+    const double e0 = r.energy_history.front();
+    int checked = 0;
+    for (std::size_t k = 1; k + 1 < r.energy_history.size(); ++k) {
+      const double a = r.energy_history[k] / e0, b = r.energy_history[k + 1] / e0;
+      if (a < 1e-3 && a > 1e-14 && b > 1e-30) {
+        EXPECT_GT(std::log(b) / std::log(a), 1.7)
+            << fmt::format("increment {} iteration {}: {:.3e} -> {:.3e}", r.increment, k, a, b);
+        ++checked;
+      }
+    }
+    EXPECT_GT(checked, 0) << "increment " << r.increment << " showed no quadratic phase";
+    EXPECT_LE(r.iterations, 6) << "increment " << r.increment;
+  }
+}
+
+} // namespace
+} // namespace yarnsim
