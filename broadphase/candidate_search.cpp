@@ -72,9 +72,9 @@ public:
     int max_group = -1;
     for (std::size_t i = 0; i < segments_.size(); ++i) {
       if (segments_[i].group < 0) {
-        throw std::invalid_argument("CandidateSearch: expected group >= 0 for every segment, found " +
-                                    std::to_string(segments_[i].group) + " at segment " +
-                                    std::to_string(i));
+        throw std::invalid_argument(
+            "CandidateSearch: expected group >= 0 for every segment, found " +
+            std::to_string(segments_[i].group) + " at segment " + std::to_string(i));
       }
       max_group = std::max(max_group, segments_[i].group);
     }
@@ -99,6 +99,12 @@ public:
   }
 
   int size() const { return static_cast<int>(segments_.size()); }
+  int num_groups() const { return num_groups_; }
+  int group(int segment) const { return segments_[segment].group; }
+  /// Whether segments of groups a and b may touch.
+  bool groups_touch(int a, int b) const {
+    return allowed_[static_cast<std::size_t>(a) * num_groups_ + b] != 0;
+  }
 
   /// Whether segments a != b may form a candidate pair.
   bool allows(int a, int b) const {
@@ -114,7 +120,7 @@ public:
         return false;
       }
     }
-    return allowed_[static_cast<std::size_t>(sa.group) * num_groups_ + sb.group] != 0;
+    return groups_touch(sa.group, sb.group);
   }
 
 private:
@@ -129,9 +135,12 @@ bool valid_box(const Eigen::AlignedBox3d& b) {
   return b.min().allFinite() && b.max().allFinite() && (b.min().array() <= b.max().array()).all();
 }
 
-bool valid_radius(double r) { return std::isfinite(r) && r >= 0.0; }
+bool valid_radius(double r) {
+  return std::isfinite(r) && r >= 0.0;
+}
 
-void check_sizes(int n, std::span<const Eigen::AlignedBox3d> boxes, std::span<const double> radius) {
+void check_sizes(int n, std::span<const Eigen::AlignedBox3d> boxes,
+                 std::span<const double> radius) {
   if (boxes.size() != static_cast<std::size_t>(n) || radius.size() != static_cast<std::size_t>(n)) {
     throw std::invalid_argument("CandidateSearch: expected " + std::to_string(n) +
                                 " boxes and radii (one per segment), found " +
@@ -166,15 +175,18 @@ void sort_unique(std::vector<CandidatePair>& pairs, int num_segments,
   for (const CandidatePair& p : pairs) {
     scratch[offsets[p.first]++] = p;
   }
-  // offsets[i] is now the end of run i; run i starts at offsets[i - 1] (0 for i = 0).
-  int begin = 0;
-  for (int i = 0; i < num_segments; ++i) {
-    const int end = offsets[i];
-    if (end - begin > 1) {
-      std::sort(scratch.begin() + begin, scratch.begin() + end);
-    }
-    begin = end;
-  }
+  // offsets[i] is now the end of run i, which starts at offsets[i - 1] (0 for i = 0). The runs
+  // are disjoint, so sorting them in parallel gives the same result on any thread count.
+  tbb::parallel_for(tbb::blocked_range<int>(0, num_segments, grain_size),
+                    [&](const tbb::blocked_range<int>& range) {
+                      for (int i = range.begin(); i != range.end(); ++i) {
+                        const int begin = i == 0 ? 0 : offsets[i - 1];
+                        const int end = offsets[i];
+                        if (end - begin > 1) {
+                          std::sort(scratch.begin() + begin, scratch.begin() + end);
+                        }
+                      }
+                    });
   scratch.erase(std::unique(scratch.begin(), scratch.end()), scratch.end());
   pairs.swap(scratch);
 }
@@ -231,6 +243,26 @@ struct CandidateSearch::Impl {
       objects.back()->setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(i)));
     }
     contact_boxes.resize(n);
+    // One tree per contact group that may touch some group: pairs between groups that may not
+    // touch (warp with warp in a plain weave, say) are then never visited.
+    const int g = filter.num_groups();
+    members.resize(g);
+    for (int i = 0; i < n; ++i) {
+      members[filter.group(i)].push_back(objects[i].get());
+    }
+    trees.resize(g);
+    for (int a = 0; a < g; ++a) {
+      for (int b = a; b < g; ++b) {
+        if (filter.groups_touch(a, b) && !members[a].empty() && !members[b].empty()) {
+          tree_pairs.emplace_back(a, b);
+          for (const int t : {a, b}) {
+            if (!trees[t]) {
+              trees[t] = std::make_unique<fcl::DynamicAABBTreeCollisionManagerd>();
+            }
+          }
+        }
+      }
+    }
   }
 
   /// Checks the inputs and measures the motion since the last search (0 before the first).
@@ -273,32 +305,38 @@ struct CandidateSearch::Impl {
     // box is exactly centre -+ half (a rotated box would get a cube around its bounding sphere).
     // FCL does not refresh an object's box on a move: computeLocalAABB() after the resize and
     // computeAABB() after the translation are needed, or every pair overlaps.
-    tbb::parallel_for(tbb::blocked_range<int>(0, n, grain_size),
-                      [&](const tbb::blocked_range<int>& range) {
-                        for (int i = range.begin(); i != range.end(); ++i) {
-                          const CentreHalf ch = centre_half(boxes[i], radius[i], margin);
-                          shapes[i]->side = 2.0 * ch.half; // FCL halves it back exactly
-                          shapes[i]->computeLocalAABB();
-                          objects[i]->setTranslation(ch.centre);
-                          objects[i]->computeAABB();
-                          contact_boxes[i] = Eigen::AlignedBox3d(boxes[i].min().array() - radius[i],
-                                                                 boxes[i].max().array() + radius[i]);
-                        }
-                      });
-    if (!registered) {
-      // Building the tree from the real boxes on the first search gives a balanced tree.
-      std::vector<fcl::CollisionObjectd*> raw(n);
-      for (int i = 0; i < n; ++i) {
-        raw[i] = objects[i].get();
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, n, grain_size), [&](const tbb::blocked_range<int>& range) {
+          for (int i = range.begin(); i != range.end(); ++i) {
+            const CentreHalf ch = centre_half(boxes[i], radius[i], margin);
+            shapes[i]->side = 2.0 * ch.half; // FCL halves it back exactly
+            shapes[i]->computeLocalAABB();
+            objects[i]->setTranslation(ch.centre);
+            objects[i]->computeAABB();
+            contact_boxes[i] = Eigen::AlignedBox3d(boxes[i].min().array() - radius[i],
+                                                   boxes[i].max().array() + radius[i]);
+          }
+        });
+    for (std::size_t g = 0; g < trees.size(); ++g) {
+      if (!trees[g]) {
+        continue;
       }
-      manager.registerObjects(raw);
-      registered = true;
+      if (trees[g]->empty()) {
+        // Built from the real boxes on the first search, the tree starts balanced.
+        trees[g]->registerObjects(members[g]);
+      }
+      trees[g]->update(); // refits the tree to the objects' boxes and rebalances it
     }
-    manager.update(); // refits the tree to the objects' boxes and rebalances it
 
     pairs.clear();
     CollideState state{&filter, &pairs};
-    manager.collide(&state, &collect_pair); // sequential traversal
+    for (const auto& [a, b] : tree_pairs) { // sequential traversals
+      if (a == b) {
+        trees[a]->collide(&state, &collect_pair);
+      } else {
+        trees[a]->collide(trees[b].get(), &state, &collect_pair);
+      }
+    }
     // The traversal order depends on the tree's history: sort so that nothing downstream does.
     sort_unique(pairs, n, scratch, offsets);
 
@@ -312,8 +350,10 @@ struct CandidateSearch::Impl {
   CandidateSearchOptions options;
   std::vector<std::shared_ptr<fcl::Boxd>> shapes; ///< one per segment, shared with its object
   std::vector<std::unique_ptr<fcl::CollisionObjectd>> objects; ///< user data: segment id
-  fcl::DynamicAABBTreeCollisionManagerd manager;
-  bool registered = false;
+  std::vector<std::vector<fcl::CollisionObjectd*>> members;    ///< per group, its objects
+  /// Per group, its tree, or null when the group may touch no group.
+  std::vector<std::unique_ptr<fcl::DynamicAABBTreeCollisionManagerd>> trees;
+  std::vector<std::pair<int, int>> tree_pairs; ///< (a, b), a <= b, whose trees are collided
   /// Per segment, its box inflated by the radius only at the last search, metres.
   std::vector<Eigen::AlignedBox3d> contact_boxes;
   std::vector<CandidatePair> pairs; ///< the candidates
@@ -351,13 +391,21 @@ bool CandidateSearch::update(std::span<const Eigen::AlignedBox3d> tight_boxes,
   return true;
 }
 
-const std::vector<CandidatePair>& CandidateSearch::candidates() const { return impl_->pairs; }
+const std::vector<CandidatePair>& CandidateSearch::candidates() const {
+  return impl_->pairs;
+}
 
-const CandidateSearchStatistics& CandidateSearch::statistics() const { return impl_->stats; }
+const CandidateSearchStatistics& CandidateSearch::statistics() const {
+  return impl_->stats;
+}
 
-int CandidateSearch::num_segments() const { return impl_->filter.size(); }
+int CandidateSearch::num_segments() const {
+  return impl_->filter.size();
+}
 
-const CandidateSearchOptions& CandidateSearch::options() const { return impl_->options; }
+const CandidateSearchOptions& CandidateSearch::options() const {
+  return impl_->options;
+}
 
 std::vector<CandidatePair> brute_force_candidates(std::span<const SegmentInfo> segments,
                                                   std::span<const std::pair<int, int>> group_pairs,

@@ -8,7 +8,9 @@
 // narrow phase. The candidate list is kept across Newton iterations and searched again only when
 // some box has moved far enough that a pair outside the list could come into contact.
 //
-// The search is backed by FCL's dynamic AABB tree; FCL stays inside candidate_search.cpp.
+// The search is backed by FCL's dynamic AABB trees, one per contact group, each tree collided with
+// itself or another for every pair of groups that may touch; FCL stays inside
+// candidate_search.cpp.
 
 #include <Eigen/Geometry>
 
@@ -52,11 +54,11 @@ struct CandidateSearchOptions {
 
 /// Counters of a CandidateSearch since its construction.
 struct CandidateSearchStatistics {
-  std::int64_t updates = 0;           ///< calls to update()
-  std::int64_t searches = 0;          ///< calls to update() that searched (rebuilt the list)
-  std::int64_t reported_pairs = 0;    ///< box overlaps found by the last search, before filtering
-  double last_search_seconds = 0.0;   ///< wall time of the last search (refit, tree, sort)
-  double motion_since_search = 0.0;   ///< metres, the largest box motion seen by the last update
+  std::int64_t updates = 0;         ///< calls to update()
+  std::int64_t searches = 0;        ///< calls to update() that searched (rebuilt the list)
+  std::int64_t reported_pairs = 0;  ///< box overlaps found by the last search, before filtering
+  double last_search_seconds = 0.0; ///< wall time of the last search (refit, tree, sort)
+  double motion_since_search = 0.0; ///< metres, the largest box motion seen by the last update
 };
 
 /// The box used for candidate tests: `tight` grown by `radius + margin` on every side.

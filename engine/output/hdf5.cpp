@@ -47,11 +47,12 @@ hsize_t element_count(std::span<const hsize_t> dims) {
 void write_dataset_impl(hid_t parent, const std::string& name, const void* data, std::size_t size,
                         hid_t memory_type, hid_t file_type, std::span<const hsize_t> dims) {
   if (dims.empty())
-    throw std::invalid_argument(fmt::format("HDF5: dataset '{}' needs at least one dimension", name));
+    throw std::invalid_argument(
+        fmt::format("HDF5: dataset '{}' needs at least one dimension", name));
   if (element_count(dims) != size)
-    throw std::invalid_argument(fmt::format(
-        "HDF5: dataset '{}' of shape ({}) holds {} values, got {}", name,
-        fmt::join(dims, ", "), element_count(dims), size));
+    throw std::invalid_argument(
+        fmt::format("HDF5: dataset '{}' of shape ({}) holds {} values, got {}", name,
+                    fmt::join(dims, ", "), element_count(dims), size));
   Handle space(checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr),
                        "H5Screate_simple", parent, name),
                H5Sclose, "H5Screate_simple");
@@ -72,10 +73,10 @@ Handle create_scalar_attribute(hid_t object, const std::string& name, hid_t file
   if (exists > 0)
     checked(H5Adelete(object, name.c_str()), "H5Adelete", object, name);
   Handle space(checked(H5Screate(H5S_SCALAR), "H5Screate", object, name), H5Sclose, "H5Screate");
-  return Handle(checked(H5Acreate2(object, name.c_str(), file_type, space.id(), H5P_DEFAULT,
-                                   H5P_DEFAULT),
-                        "H5Acreate2", object, name),
-                H5Aclose, "H5Acreate2");
+  return Handle(
+      checked(H5Acreate2(object, name.c_str(), file_type, space.id(), H5P_DEFAULT, H5P_DEFAULT),
+              "H5Acreate2", object, name),
+      H5Aclose, "H5Acreate2");
 }
 
 Handle file_access_without_locking() {
@@ -174,10 +175,9 @@ void flush(hid_t object) {
 Handle create_group(hid_t parent, const std::string& name) {
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose, "H5Pcreate(H5P_LINK_CREATE)");
   check(H5Pset_create_intermediate_group(lcpl.id(), 1), "H5Pset_create_intermediate_group");
-  return Handle(
-      checked(H5Gcreate2(parent, name.c_str(), lcpl.id(), H5P_DEFAULT, H5P_DEFAULT), "H5Gcreate2",
-              parent, name),
-      H5Gclose, "H5Gcreate2");
+  return Handle(checked(H5Gcreate2(parent, name.c_str(), lcpl.id(), H5P_DEFAULT, H5P_DEFAULT),
+                        "H5Gcreate2", parent, name),
+                H5Gclose, "H5Gcreate2");
 }
 
 void write_dataset(hid_t parent, const std::string& name, std::span<const double> data,

@@ -5,7 +5,6 @@
 
 #include <hdf5.h>
 
-#include <cstddef>
 #include <filesystem>
 #include <span>
 #include <string>

@@ -2,10 +2,11 @@
 
 #include <fmt/format.h>
 
-#include <cstdio>
+#include <array>
 #include <fstream>
 #include <iterator>
 #include <numeric>
+#include <span>
 #include <stdexcept>
 #include <system_error>
 
@@ -44,12 +45,23 @@ std::string xml_escape(std::string_view text) {
   out.reserve(text.size());
   for (char c : text) {
     switch (c) {
-    case '&': out += "&amp;"; break;
-    case '<': out += "&lt;"; break;
-    case '>': out += "&gt;"; break;
-    case '"': out += "&quot;"; break;
-    case '\'': out += "&apos;"; break;
-    default: out += c;
+    case '&':
+      out += "&amp;";
+      break;
+    case '<':
+      out += "&lt;";
+      break;
+    case '>':
+      out += "&gt;";
+      break;
+    case '"':
+      out += "&quot;";
+      break;
+    case '\'':
+      out += "&apos;";
+      break;
+    default:
+      out += c;
     }
   }
   return out;
@@ -89,9 +101,9 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
   for (std::size_t e = 0; e < mesh.elements.size(); ++e)
     for (int node : mesh.elements[e])
       if (node < 0 || node >= n_nodes_)
-        throw std::invalid_argument(fmt::format(
-            "results: mesh element {} refers to node {}, expected 0 <= node < {}", e, node,
-            n_nodes_));
+        throw std::invalid_argument(
+            fmt::format("results: mesh element {} refers to node {}, expected 0 <= node < {}", e,
+                        node, n_nodes_));
 
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
@@ -149,14 +161,14 @@ void ResultsFile::write_step(const StepResults& step) {
   for (std::size_t i = 0; i < step.scalars.size(); ++i) {
     const std::string& scalar = step.scalars[i].first;
     if (scalar.empty() || scalar == "increment" || scalar == "time")
-      throw std::invalid_argument(fmt::format(
-          "results: step scalar {} is named '{}'; expected a non-empty name other than "
-          "'increment' and 'time'",
-          i, scalar));
+      throw std::invalid_argument(
+          fmt::format("results: step scalar {} is named '{}'; expected a non-empty name other than "
+                      "'increment' and 'time'",
+                      i, scalar));
     for (std::size_t j = 0; j < i; ++j)
       if (step.scalars[j].first == scalar)
-        throw std::invalid_argument(
-            fmt::format("results: step scalar '{}' appears twice (entries {} and {})", scalar, j, i));
+        throw std::invalid_argument(fmt::format(
+            "results: step scalar '{}' appears twice (entries {} and {})", scalar, j, i));
   }
 
   const std::string name = fmt::format("{:06d}", steps_written_);
@@ -208,8 +220,7 @@ void ResultsFile::write_step(const StepResults& step) {
                  "Format=\"HDF\">{2}:{4}/positions</DataItem>\n"
                  "        </Geometry>\n",
                  step.time, 2 * n_elements_, kH5Name, n_nodes_, step_path);
-  append_h5_attribute(yarns, "displacement", "Vector", "Node", nodes3,
-                      step_path + "/displacement");
+  append_h5_attribute(yarns, "displacement", "Vector", "Node", nodes3, step_path + "/displacement");
   append_h5_attribute(yarns, "rotation", "Vector", "Node", nodes3, step_path + "/rotations");
   append_h5_attribute(yarns, "reaction_force", "Vector", "Node", nodes3,
                       step_path + "/reaction_force");

@@ -43,7 +43,7 @@ namespace yarnsim::output {
 
 /// The undeformed beam mesh, written once.
 struct Mesh {
-  Eigen::Matrix3Xd reference_positions;    ///< 3 x n_nodes, m
+  Eigen::Matrix3Xd reference_positions;     ///< 3 x n_nodes, m
   std::vector<std::array<int, 3>> elements; ///< 3-node beams: first, middle, last (0-based)
   Eigen::VectorXd node_radius;              ///< n_nodes, m (for ParaView's Tube filter)
 };
@@ -67,9 +67,9 @@ struct ContactPoints {
 /// The state at the end of one completed increment.
 struct StepResults {
   int increment = 0;
-  double time = 0;             ///< s
-  Eigen::Matrix3Xd positions;  ///< 3 x n_nodes, m
-  Eigen::Matrix3Xd rotations;  ///< 3 x n_nodes, total rotation vector, rad
+  double time = 0;                                    ///< s
+  Eigen::Matrix3Xd positions;                         ///< 3 x n_nodes, m
+  Eigen::Matrix3Xd rotations;                         ///< 3 x n_nodes, total rotation vector, rad
   Eigen::Matrix<double, 6, Eigen::Dynamic> reactions; ///< 6 x n_nodes: N, N m (zero where free)
   /// 6 x (2 n_elements): forces (N) then moments (N m) in the section frame at the two Gauss
   /// points of each element, element-major (column 2e+k is Gauss point k of element e).
@@ -118,7 +118,7 @@ private:
   /// The <Grid>s of the written steps in the two temporal collections of results.xdmf.
   std::string xdmf_yarns_;
   std::string xdmf_contacts_;
-  h5::Handle file_;  ///< declared before steps_group_: destroyed after it
+  h5::Handle file_; ///< declared before steps_group_: destroyed after it
   h5::Handle steps_group_;
 };
 

@@ -99,7 +99,8 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   // so the noise grows with size / element length. Residuals below these count as zero.
   const double ratio = std::max(1.0, box.diagonal().norm() / min_length);
   floor_force_ = 1e-12 * max_axial * ratio;
-  floor_moment_ = 1e-12 * max_bending / min_length * ratio;
+  // Force noise acting over an element is moment noise too.
+  floor_moment_ = std::max(1e-12 * max_bending / min_length * ratio, floor_force_ * min_length);
   floor_length_ = 1e-12 * std::max(box.diagonal().norm(), min_length);
   min_length_ = min_length;
 
@@ -283,9 +284,11 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       }
       increment_ok = last_du <= step.tol_increment * std::max(step_du, floor_length_) &&
                      last_da <= step.tol_increment * std::max(step_da, 1e-12);
-    } else {
-      increment_ok = r_force <= floor_force_ && r_moment <= floor_moment_;
     }
+    // A residual at round-off level cannot be improved: the last correction then only stirs
+    // round-off (ill-conditioned stiff axial against soft bending modes).
+    if (r_force <= floor_force_ && r_moment <= floor_moment_)
+      increment_ok = true;
     if (residual_ok && increment_ok) {
       report.iterations = iter;
       // Reactions: residual at constrained DOFs; moments from r_alpha = Xi^T m.

@@ -1,6 +1,7 @@
 #include "engine/model/deck.hpp"
 #include "engine/model/model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>

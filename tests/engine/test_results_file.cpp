@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <array>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -30,9 +31,8 @@ class ResultsDir : public ::testing::Test {
 protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir = fs::temp_directory_path() /
-          (std::string("yarnsim_") + info->test_suite_name() + "_" + info->name() + "_" +
-           std::to_string(::getpid()));
+    dir = fs::temp_directory_path() / (std::string("yarnsim_") + info->test_suite_name() + "_" +
+                                       info->name() + "_" + std::to_string(::getpid()));
     fs::remove_all(dir);
   }
   void TearDown() override { fs::remove_all(dir); }
@@ -263,12 +263,15 @@ TEST_F(ResultsDir, EveryStepIsWrittenNodeMajorWithDisplacementAndSectionResultan
 
     expect_node_major(file, step + "/contacts/position", s.contacts.position);
     expect_node_major(file, step + "/contacts/normal", s.contacts.normal);
+    const Array vertices = read_array(file, step + "/contacts/vertices");
+    EXPECT_EQ(vertices.dims, std::vector<hsize_t>{hsize_t(k)});
+    for (int i = 0; i < k; ++i)
+      EXPECT_EQ(vertices.values[i], i);
     const Array gap = read_array(file, step + "/contacts/gap");
     EXPECT_EQ(gap.dims, std::vector<hsize_t>{hsize_t(k)});
     EXPECT_EQ(std::vector<double>(s.contacts.gap.begin(), s.contacts.gap.end()), gap.values);
     const Array force = read_array(file, step + "/contacts/force");
-    EXPECT_EQ(std::vector<double>(s.contacts.force.begin(), s.contacts.force.end()),
-              force.values);
+    EXPECT_EQ(std::vector<double>(s.contacts.force.begin(), s.contacts.force.end()), force.values);
   }
   H5Fclose(file);
 }
@@ -281,10 +284,16 @@ TEST_F(ResultsDir, XdmfListsEveryStepOverTheSharedSegments) {
   const std::string xml = read_text(dir / "results.xdmf");
   EXPECT_EQ(xml_nesting_error(xml), "");
   EXPECT_FALSE(fs::exists(dir / "results.xdmf.tmp"));
-  EXPECT_EQ(count(xml, "CollectionType=\"Temporal\""), 1u);
-  EXPECT_EQ(count(xml, "<Time "), 3u);
-  EXPECT_NE(xml.find("<Time Value=\"0.25\"/>"), std::string::npos);
-  EXPECT_NE(xml.find("<Time Value=\"0.75\"/>"), std::string::npos);
+  // Two temporal collections: "yarns" (every step), then "contacts" (steps with contacts).
+  EXPECT_EQ(count(xml, "CollectionType=\"Temporal\""), 2u);
+  const auto contacts_at = xml.find("<Grid Name=\"contacts\" GridType=\"Collection\"");
+  ASSERT_NE(contacts_at, std::string::npos);
+  const std::string yarns = xml.substr(0, contacts_at);
+  const std::string contacts = xml.substr(contacts_at);
+  EXPECT_EQ(count(yarns, "<Time "), 3u);
+  EXPECT_EQ(count(yarns, "<Grid Name=\"yarns\" GridType=\"Uniform\""), 3u);
+  EXPECT_NE(yarns.find("<Time Value=\"0.25\"/>"), std::string::npos);
+  EXPECT_NE(yarns.find("<Time Value=\"0.75\"/>"), std::string::npos);
   EXPECT_EQ(count(xml, "TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"4\""),
             3u);
   EXPECT_EQ(count(xml, "results.h5:/mesh/segments"), 3u);
@@ -295,10 +304,18 @@ TEST_F(ResultsDir, XdmfListsEveryStepOverTheSharedSegments) {
                            "radius", "section_force", "section_moment"})
     EXPECT_EQ(count(xml, std::string("Attribute Name=\"") + name + "\""), 3u) << name;
   EXPECT_EQ(count(xml, "Center=\"Cell\""), 6u);
-  // Contacts only in the steps that have some (steps 1 and 2).
-  EXPECT_EQ(count(xml, "<Grid Name=\"contacts\""), 2u);
+  // Contacts only at the steps that have some (steps 1 and 2, times 0.5 and 0.75).
+  EXPECT_EQ(count(contacts, "<Grid Name=\"contacts\" GridType=\"Uniform\""), 2u);
+  EXPECT_EQ(count(contacts, "<Time "), 2u);
+  EXPECT_EQ(contacts.find("<Time Value=\"0.25\"/>"), std::string::npos);
   EXPECT_EQ(xml.find("/steps/000000/contacts"), std::string::npos);
-  EXPECT_NE(xml.find("results.h5:/steps/000002/contacts/normal"), std::string::npos);
+  EXPECT_NE(
+      contacts.find("TopologyType=\"Polyvertex\" NodesPerElement=\"1\" NumberOfElements=\"2\""),
+      std::string::npos);
+  for (const char* name : {"vertices", "position", "normal", "gap", "force"})
+    EXPECT_NE(contacts.find(std::string("results.h5:/steps/000002/contacts/") + name),
+              std::string::npos)
+        << name;
 }
 
 TEST_F(ResultsDir, CloseRecordsStatusAndMessage) {
@@ -335,7 +352,8 @@ TEST_F(ResultsDir, StepsAreOnDiskWhileTheWriterIsStillOpen) {
     EXPECT_EQ(H5Lexists(file, "/steps/000002", H5P_DEFAULT), 0);
     H5Fclose(file);
   }
-  EXPECT_EQ(count(read_text(dir / "results.xdmf"), "<Time "), 2u);
+  EXPECT_EQ(count(read_text(dir / "results.xdmf"), "<Grid Name=\"yarns\" GridType=\"Uniform\""),
+            2u);
 }
 
 TEST_F(ResultsDir, LongDeckTextIsKeptWhole) {
@@ -364,6 +382,35 @@ TEST_F(ResultsDir, ArraysThatDoNotMatchTheMeshAreRejected) {
   s.scalars.emplace_back("time", 1.0);
   EXPECT_THROW(results.write_step(s), std::invalid_argument);
   EXPECT_EQ(results.steps_written(), 0);
+}
+
+TEST_F(ResultsDir, FailedHdf5CallsThrowNamingTheCallTheObjectAndTheCause) {
+  namespace h5 = yarnsim::output::h5;
+  fs::create_directories(dir);
+  h5::Handle file = h5::create_file(dir / "plain.h5");
+  h5::Handle group = h5::create_group(file.id(), "steps/000000");
+  const std::array<double, 2> values{1, 2};
+  const std::array<hsize_t, 1> dims{2};
+  h5::write_dataset(group.id(), "gap", values, dims);
+
+  H5E_auto2_t print = nullptr;
+  void* print_data = nullptr;
+  H5Eget_auto2(H5E_DEFAULT, &print, &print_data);
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); // keep the test's output clean
+  try {
+    h5::write_dataset(group.id(), "gap", values, dims);
+    ADD_FAILURE() << "writing a dataset twice did not throw";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("H5Dcreate2"), std::string::npos) << what;
+    EXPECT_NE(what.find("'gap'"), std::string::npos) << what;
+    EXPECT_NE(what.find("plain.h5:/steps/000000"), std::string::npos) << what;
+    EXPECT_NE(what.find("already exists"), std::string::npos) << what;
+  }
+  EXPECT_THROW(h5::create_file(dir / "no" / "such" / "dir.h5"), std::runtime_error);
+  H5Eset_auto2(H5E_DEFAULT, print, print_data);
+  const std::array<hsize_t, 1> wrong{3};
+  EXPECT_THROW(h5::write_dataset(group.id(), "short", values, wrong), std::invalid_argument);
 }
 
 TEST_F(ResultsDir, CsvHeaderAndEachRowAreOnDiskWhenTheCallReturns) {

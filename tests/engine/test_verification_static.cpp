@@ -84,3 +84,35 @@ TEST(VerificationStatic, NewtonConvergesQuadraticallyOnTheRollUp) {
 
 } // namespace
 } // namespace yarnsim
+
+namespace yarnsim {
+namespace {
+
+TEST(VerificationStatic, ElasticaUnderADeadTipLoadOnAConvergedMesh) {
+  // verification.md, Euler elastica: w/L, u/L and tip rotation for alpha = P L^2 / EI.
+  struct Row {
+    double alpha, w, u, rot;
+  };
+  const Row rows[] = {{1, 0.30172, 0.05643, 0.46135},
+                      {3, 0.60325, 0.25442, 0.98602},
+                      {10, 0.81061, 0.55500, 1.43029}};
+  const double L = 1.0, EI = 1.0;
+  for (const Row& row : rows) {
+    Model m = test::straight_beam({0, 0, 0}, {L, 0, 0}, 32,
+                                  test::stiffness_section(1e7, 1e7, EI, EI));
+    m.constraints.push_back(test::clamp(1));
+    m.loads.push_back(NodalLoad{2, Eigen::Vector3d(0, row.alpha * EI / (L * L), 0),
+                                Eigen::Vector3d::Zero(), false, TimeTable::ramp(1.0)});
+    m.steps.push_back(test::static_step(1.0, 0.1, 1e-9));
+    Simulation sim(m);
+    sim.run();
+    const int tip = static_cast<int>(m.nodes.size()) - 1;
+    const Eigen::Vector3d x = sim.state().x_n.col(tip);
+    EXPECT_NEAR(x.y() / L, row.w, 1e-3 * row.w) << "alpha " << row.alpha;
+    EXPECT_NEAR((L - x.x()) / L, row.u, 1e-3 * row.u) << "alpha " << row.alpha;
+    EXPECT_NEAR(sim.state().rotation_n(2, tip), row.rot, 1e-3 * row.rot) << "alpha " << row.alpha;
+  }
+}
+
+} // namespace
+} // namespace yarnsim

@@ -1,0 +1,111 @@
+// yarnsim: the command line. Thin: parse, read the deck, run, map exceptions to exit codes
+// (README: 0 success, 1 other failure, 2 bad input or usage, 3 no convergence, 130 interrupted).
+
+#include "engine/model/deck.hpp"
+#include "engine/run/run.hpp"
+#include "engine/solver/simulation.hpp"
+#include "yarnsim/version.hpp"
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
+#include <fmt/format.h>
+#include <fstream>
+#include <sstream>
+#include <tbb/global_control.h>
+#include <thread>
+
+namespace {
+
+enum ExitCode : int {
+  kSuccess = 0,
+  kFailure = 1,
+  kBadInput = 2,
+  kNoConvergence = 3,
+  kInterrupted = 130
+};
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void on_signal(int) { g_stop.store(true); }
+
+std::string read_text(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"yarnsim: yarn-scale simulation of dry woven textiles with geometrically exact "
+               "beams and contact"};
+  app.set_version_flag("--version", std::string("yarnsim ") + yarnsim::kVersion);
+  app.require_subcommand(1);
+
+  std::string deck;
+  std::string output;
+  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::string solver = "lu";
+  bool quiet = false;
+  CLI::App* run = app.add_subcommand("run", "Run a model deck (TOML); see docs/input.md");
+  run->add_option("deck", deck, "Model deck (.toml)")->required();
+  run->add_option("--output,-o", output,
+                  "Output folder (default: results/<deck name> in the current folder)");
+  run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
+  run->add_option("--linear-solver", solver, "Sparse direct solver: lu or ldlt")
+      ->check(CLI::IsMember({"lu", "ldlt"}));
+  run->add_flag("--quiet,-q", quiet, "No progress line");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e); // prints help, version or the usage error
+    return code == 0 ? kSuccess : kBadInput;
+  }
+
+  // One limit for every parallel part of the run (oneTBB; the solvers use no other pool).
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                            static_cast<std::size_t>(threads));
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+
+  const std::filesystem::path deck_path(deck);
+  std::filesystem::path out_dir =
+      output.empty() ? std::filesystem::path("results") / deck_path.stem()
+                     : std::filesystem::path(output);
+  try {
+    const yarnsim::Model model = yarnsim::read_deck(deck_path);
+    yarnsim::RunOptions options;
+    options.output_dir = out_dir;
+    options.deck_text = read_text(deck_path);
+    options.deck_path = deck_path.string();
+    options.threads = threads;
+    options.linear_solver = yarnsim::linear_solver_kind_from(solver);
+    options.progress = !quiet;
+    options.stop_requested = &g_stop;
+    fmt::print(stderr, "yarnsim {}: {} ({} nodes, {} elements), {} thread(s), output in {}\n",
+               yarnsim::kVersion, model.title.empty() ? deck_path.filename().string() : model.title,
+               model.nodes.size(), model.elements.size(), threads, out_dir.string());
+    const yarnsim::RunSummary s = yarnsim::run_model(model, options);
+    fmt::print(stderr, "done: {} increments, {} Newton iterations in {:.2f} s; results in {}\n",
+               s.increments, s.iterations, s.wall_seconds, out_dir.string());
+    return kSuccess;
+  } catch (const yarnsim::InputError& e) {
+    fmt::print(stderr, "{}\nerror: the deck has {} problem(s); nothing was run\n", e.what(),
+               e.messages().size());
+    return kBadInput;
+  } catch (const yarnsim::ConvergenceError& e) {
+    fmt::print(stderr, "error: {}\nThe results in {} hold every completed increment.\n", e.what(),
+               out_dir.string());
+    return kNoConvergence;
+  } catch (const yarnsim::Interrupted& e) {
+    fmt::print(stderr, "{}\nThe results in {} hold every completed increment.\n", e.what(),
+               out_dir.string());
+    return kInterrupted;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return kFailure;
+  }
+}

@@ -1,0 +1,587 @@
+#include "contact/spline_contact.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <initializer_list>
+
+// Notation (formulation.md §5). The kernel works in each segment's local variable
+// u = (xi - mid) / h (the range is u in [-1/2, 1/2]); every quantity below except the reported xi
+// is invariant to that choice. With x the 18 positions [x_A0 x_A1 x_A2 x_B0 x_B1 x_B2]:
+//   g = C_A - C_B = sum_k w_k x_k,        w = [N_A(u_A); -N_B(u_B)]
+//   g_a = dg/du_A = sum_k wa_k x_k,       wa = [N_A'(u_A); 0]
+//   g_b = dg/du_B = sum_k wb_k x_k,       wb = [0; -N_B'(u_B)]
+//   Phi = |g|^2 / 2, r = dPhi/dc = [g_a.g, g_b.g] (eq. 11), H = dr/dc, D = dr/dx (2 x 18)
+//   dPhi/dx = G^T g = kron(w, g), d2Phi/dx2 = kron(w w^T, I3).
+// The distance as a function of the positions alone, psi(x) = |g(c(x), x)|, has the gradient
+// and Hessian that give the residual and tangent; with c(x) the minimiser of Phi,
+// d2Phi*/dx2 = kron(w w^T, I) - D^T H^-1 D (implicit differentiation, dc/dx = -H^-1 D), and
+// psi = sqrt(2 Phi*) gives grad psi = grad Phi* / psi, hess psi = (hess Phi* - grad psi
+// grad psi^T) / psi.
+
+namespace yarnsim::contact {
+
+namespace {
+
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Vec18 = Eigen::Matrix<double, 18, 1>;
+using Mat18 = Eigen::Matrix<double, 18, 18>;
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+/// Half-width of the band around an interior knot (segments) in which ownership is decided by
+/// the knot test rather than by comparing xi with the knot.
+constexpr double kKnotBand = 1e-8;
+/// A Hessian eigenvalue below this fraction of the largest counts as not positive.
+constexpr double kDefinite = 1e-10;
+/// Shift added to an indefinite Hessian, as a fraction of its largest eigenvalue.
+constexpr double kShift = 1e-3;
+/// Largest step per iteration, segments.
+constexpr double kMaxStep = 1.0;
+/// Positive-definite Newton steps shorter than this (segments) skip the line search: the
+/// quadratic model is then accurate, and near the solution rounding in Phi would make the
+/// Armijo test fail spuriously.
+constexpr double kTrustedStep = 1e-3;
+
+/// kron(w, v): block k of the result is w_k v.
+Vec18 kron(const Vec6& w, const Vector3d& v) {
+  Vec18 out;
+  for (int k = 0; k < 6; ++k) {
+    out.segment<3>(3 * k) = w(k) * v;
+  }
+  return out;
+}
+
+/// K += s kron(a b^T, M).
+void add_kron(Mat18& k, const Vec6& a, const Vec6& b, const Matrix3d& m, double s) {
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j) {
+      k.block<3, 3>(3 * i, 3 * j) += (s * a(i) * b(j)) * m;
+    }
+  }
+}
+
+/// Phi and its derivatives in c = (u_A, u_B) at one point.
+struct Local {
+  Vector3d na, dna, nb, dnb; // basis values and u-derivatives
+  Vector3d g, ga, gb;
+  Eigen::Vector2d r;
+  Eigen::Matrix2d h;
+};
+
+/// Phi's derivatives at (u_A, u_B); gaa = C_A'' and gbb = -C_B'' are constant on a segment.
+Local evaluate(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
+               const SegmentBasis& bb, double ua, double ub, const Vector3d& gaa,
+               const Vector3d& gbb) {
+  Local e;
+  e.na = ba.values_local(ua);
+  e.dna = ba.first_local(ua);
+  e.nb = bb.values_local(ub);
+  e.dnb = bb.first_local(ub);
+  e.g = xa * e.na - xb * e.nb;
+  e.ga = xa * e.dna;
+  e.gb = -(xb * e.dnb);
+  e.r << e.ga.dot(e.g), e.gb.dot(e.g);
+  e.h(0, 0) = e.ga.squaredNorm() + gaa.dot(e.g);
+  e.h(0, 1) = e.ga.dot(e.gb);
+  e.h(1, 0) = e.h(0, 1);
+  e.h(1, 1) = e.gb.squaredNorm() + gbb.dot(e.g);
+  return e;
+}
+
+Local evaluate(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
+               const SegmentBasis& bb, double ua, double ub) {
+  return evaluate(xa, ba, xb, bb, ua, ub, xa * ba.second_local(), -(xb * bb.second_local()));
+}
+
+double half_squared_distance(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
+                             const SegmentBasis& bb, double ua, double ub) {
+  return 0.5 * (xa * ba.values_local(ua) - xb * bb.values_local(ub)).squaredNorm();
+}
+
+/// Whether a full Newton step of `length` ends the iteration: it is below the tolerance, or,
+/// in the quadratic regime after a previous short step, the step after it would be
+/// (|s_k+1| ~ |s_k|^3 / |s_k-1|^2, the constant of quadratic convergence estimated from the
+/// last two steps). Saves the last, confirming iteration.
+bool converges(double length, double previous, double tolerance) {
+  if (length <= tolerance) {
+    return true;
+  }
+  return previous > 0.0 && length < 1e-2 * previous &&
+         length * length * length <= tolerance * previous * previous;
+}
+
+struct Solve {
+  bool converged = false;
+  bool left = false; // an iterate went beyond the segment's neighbourhood
+  int iterations = 0;
+  double ua = 0.0;
+  double ub = 0.0;
+};
+
+/// Safeguarded Newton for min |g|^2 / 2 over (u_A, u_B) on the extended polynomials.
+Solve newton_pair(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
+                  const SegmentBasis& bb, double ua, double ub, const SplineContactOptions& opt) {
+  Solve s;
+  const double limit = 0.5 + opt.max_extension;
+  double previous = 0.0; // length of the previous step if it was a full Newton step
+  const Vector3d gaa = xa * ba.second_local();
+  const Vector3d gbb = -(xb * bb.second_local());
+  for (int it = 0; it < opt.max_iterations; ++it) {
+    s.iterations = it + 1;
+    const Local e = evaluate(xa, ba, xb, bb, ua, ub, gaa, gbb);
+    const double phi = 0.5 * e.g.squaredNorm();
+    const double a = e.h(0, 0);
+    const double b = e.h(0, 1);
+    const double c = e.h(1, 1);
+    const double radius = std::sqrt(0.25 * (a - c) * (a - c) + b * b);
+    const double lmin = 0.5 * (a + c) - radius;
+    const double lmax = 0.5 * (a + c) + radius;
+    const double scale = std::max(std::abs(lmin), std::abs(lmax));
+    if (!(scale > 0.0) || !std::isfinite(scale)) {
+      break;
+    }
+    const bool definite = lmin > kDefinite * scale;
+    const double shift = definite ? 0.0 : kShift * scale - lmin;
+    const double ma = a + shift;
+    const double mc = c + shift;
+    const double det = ma * mc - b * b;
+    Eigen::Vector2d step(-(mc * e.r(0) - b * e.r(1)) / det, -(ma * e.r(1) - b * e.r(0)) / det);
+    double length = step.norm();
+    if (definite && converges(length, previous, opt.step_tolerance)) {
+      s.converged = true;
+      s.ua = ua + step(0);
+      s.ub = ub + step(1);
+      return s;
+    }
+    const bool capped = length > kMaxStep;
+    if (capped) {
+      step *= kMaxStep / length;
+      length = kMaxStep;
+    }
+    double t = 1.0;
+    if (!(definite && length < kTrustedStep)) {
+      const double slope = e.r.dot(step);
+      while (half_squared_distance(xa, ba, xb, bb, ua + t * step(0), ub + t * step(1)) >
+             phi + 1e-4 * t * slope) {
+        t *= 0.5;
+        if (t < 1e-12) {
+          s.ua = ua;
+          s.ub = ub;
+          return s;
+        }
+      }
+    }
+    previous = definite && !capped && t == 1.0 ? length : 0.0;
+    ua += t * step(0);
+    ub += t * step(1);
+    if (std::abs(ua) > limit || std::abs(ub) > limit) {
+      s.left = true;
+      break;
+    }
+  }
+  s.ua = ua;
+  s.ub = ub;
+  return s;
+}
+
+/// Safeguarded Newton for the projection of point p onto segment (x, b) extended: the u
+/// minimising |C(u) - p|^2 / 2.
+Solve project_point(const Vector3d& p, const Matrix3d& x, const SegmentBasis& b, double u,
+                    const SplineContactOptions& opt) {
+  Solve s;
+  const double limit = 0.5 + opt.max_extension;
+  double previous = 0.0;
+  const Vector3d c2 = x * b.second_local();
+  for (int it = 0; it < opt.max_iterations; ++it) {
+    s.iterations = it + 1;
+    const Vector3d d = x * b.values_local(u) - p;
+    const Vector3d c1 = x * b.first_local(u);
+    const double r = c1.dot(d);
+    const double h = c1.squaredNorm() + c2.dot(d);
+    const double scale = std::max(c1.squaredNorm(), std::abs(h));
+    if (!(scale > 0.0) || !std::isfinite(scale)) {
+      break;
+    }
+    const bool definite = h > kDefinite * scale;
+    double step = -r / (definite ? h : kShift * scale + std::abs(h));
+    if (definite && converges(std::abs(step), previous, opt.step_tolerance)) {
+      s.converged = true;
+      s.ua = u + step;
+      return s;
+    }
+    const bool capped = std::abs(step) > kMaxStep;
+    step = std::clamp(step, -kMaxStep, kMaxStep);
+    double t = 1.0;
+    if (!(definite && std::abs(step) < kTrustedStep)) {
+      const double phi = 0.5 * d.squaredNorm();
+      while (0.5 * (x * b.values_local(u + t * step) - p).squaredNorm() >
+             phi + 1e-4 * t * r * step) {
+        t *= 0.5;
+        if (t < 1e-12) {
+          s.ua = u;
+          return s;
+        }
+      }
+    }
+    previous = definite && !capped && t == 1.0 ? std::abs(step) : 0.0;
+    u += t * step;
+    if (std::abs(u) > limit) {
+      s.left = true;
+      break;
+    }
+  }
+  s.ua = u;
+  return s;
+}
+
+/// The degenerate path's fixed coordinate: the midpoint of the overlap of the two segments
+/// along A's chord. t_j = ((C_B(end j) - C_A(begin)) . e) / (e . e), e = C_A(end) - C_A(begin),
+/// is B's end j measured along A's chord (0 and 1 at A's ends); the overlap is
+/// [max(0, min t), min(1, max t)] and u_A its midpoint. Each t_j = alpha / beta with
+/// alpha = w_j . e, beta = e . e, w_j = W_j x, e = E x linear in the positions, so its gradient
+/// and Hessian are explicit.
+struct Overlap {
+  double u = 0.0;
+  double t[2] = {0.0, 0.0};
+  Vec6 omega[2]; // w_j = sum_k omega_jk x_k
+  Vector3d w[2];
+  Vec6 eta; // e = sum_k eta_k x_k
+  Vector3d e;
+  double beta = 0.0;
+  int lo = -1; // index j of the end setting the overlap's lower bound, -1 if A's begin does
+  int hi = -1; // index j of the end setting the upper bound, -1 if A's end does
+};
+
+Overlap overlap_midpoint(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
+                         const SegmentBasis& bb) {
+  Overlap o;
+  const Vector3d na0 = ba.values_local(-0.5);
+  const Vector3d na1 = ba.values_local(0.5);
+  const Vector3d p0 = xa * na0;
+  o.e = xa * (na1 - na0);
+  o.eta << na1 - na0, Vector3d::Zero();
+  o.beta = o.e.squaredNorm();
+  for (int j = 0; j < 2; ++j) {
+    const Vector3d nb = bb.values_local(j == 0 ? -0.5 : 0.5);
+    o.w[j] = xb * nb - p0;
+    o.omega[j] << -na0, nb;
+    o.t[j] = o.w[j].dot(o.e) / o.beta;
+  }
+  const int jmin = o.t[0] <= o.t[1] ? 0 : 1;
+  const int jmax = 1 - jmin;
+  double lower = 0.0;
+  double upper = 1.0;
+  if (o.t[jmin] > 0.0) {
+    lower = o.t[jmin];
+    o.lo = jmin;
+  }
+  if (o.t[jmax] < 1.0) {
+    upper = o.t[jmax];
+    o.hi = jmax;
+  }
+  o.u = 0.5 * (lower + upper) - 0.5;
+  return o;
+}
+
+/// Gradient and Hessian of the overlap midpoint u_A with respect to the 18 positions.
+void overlap_derivatives(const Overlap& o, Vec18& grad, Mat18& hess) {
+  grad.setZero();
+  hess.setZero();
+  const Vec18 grad_beta = 2.0 * kron(o.eta, o.e);
+  const Matrix3d identity = Matrix3d::Identity();
+  for (const int j : {o.lo, o.hi}) {
+    if (j < 0) {
+      continue;
+    }
+    const double t = o.t[j];
+    const Vec18 grad_t = (kron(o.omega[j], o.e) + kron(o.eta, o.w[j]) - t * grad_beta) / o.beta;
+    Mat18 hess_t = -(grad_beta * grad_t.transpose() + grad_t * grad_beta.transpose());
+    add_kron(hess_t, o.omega[j], o.eta, identity, 1.0);
+    add_kron(hess_t, o.eta, o.omega[j], identity, 1.0);
+    add_kron(hess_t, o.eta, o.eta, identity, -2.0 * t);
+    grad += 0.5 * grad_t;
+    hess += (0.5 / o.beta) * hess_t;
+  }
+}
+
+/// Which side of an interior knot owns a contact there: the sign of dr/dxi at the knot, from
+/// the knot point P (midpoint of the two shared control points x0, x1), the tangent direction
+/// x1 - x0 and the projection of P onto the other segment started at its midpoint. The two
+/// pairs sharing the knot evaluate it from the same numbers in the same order, so they agree
+/// bit for bit. Positive: the minimum lies below the knot.
+double knot_side(const Vector3d& x0, const Vector3d& x1, const Matrix3d& other,
+                 const SegmentBasis& other_basis, const SplineContactOptions& opt) {
+  const Vector3d p = 0.5 * (x0 + x1);
+  const Solve s = project_point(p, other, other_basis, 0.0, opt);
+  const Vector3d q = other * other_basis.values_local(s.ua);
+  return (x1 - x0).dot(p - q);
+}
+
+/// Whether segment (x, b) owns local coordinate u of a regular solution; see knot_side.
+bool owns_coordinate(const Matrix3d& x, const SegmentBasis& b, double u, const Matrix3d& other,
+                     const SegmentBasis& other_basis, const SplineContactOptions& opt) {
+  if (b.begin() > 0.0 && std::abs(u + 0.5) < kKnotBand) {
+    return !(knot_side(x.col(0), x.col(1), other, other_basis, opt) > 0.0);
+  }
+  if (!b.closes_end() && std::abs(u - 0.5) < kKnotBand) {
+    return knot_side(x.col(1), x.col(2), other, other_basis, opt) > 0.0;
+  }
+  return b.owns(b.global(u));
+}
+
+double clamped_start(const SegmentBasis& b, double xi, bool warm, double limit) {
+  const double u = warm ? b.local(xi) : 0.0;
+  return std::isfinite(u) ? std::clamp(u, -limit, limit) : 0.0;
+}
+
+struct LocalProjection {
+  ProjectionResult result;
+  double ua = 0.0;
+  double ub = 0.0;
+  Overlap overlap; // valid on the degenerate path
+};
+
+LocalProjection project(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
+                        const SegmentBasis& bb, const ProjectionStart& start,
+                        const SplineContactOptions& opt) {
+  LocalProjection out;
+  ProjectionResult& res = out.result;
+  const double limit = 0.5 + opt.max_extension;
+  const double ua0 = clamped_start(ba, start.xi_A, start.warm, limit);
+  const double ub0 = clamped_start(bb, start.xi_B, start.warm, limit);
+
+  const Vector3d chord_a = xa * (ba.values_local(0.5) - ba.values_local(-0.5));
+  const Vector3d chord_b = xb * (bb.values_local(0.5) - bb.values_local(-0.5));
+  const double la = chord_a.squaredNorm();
+  const double lb = chord_b.squaredNorm();
+  if (!(la > 0.0 && lb > 0.0) || !std::isfinite(la) || !std::isfinite(lb)) {
+    res.status = ProjectionStatus::NotConverged; // a collapsed segment has no direction
+    res.xi_A = ba.global(ua0);
+    res.xi_B = bb.global(ub0);
+    return out;
+  }
+  const double sine2 = chord_a.cross(chord_b).squaredNorm() / (la * lb);
+  Solve s;
+  bool owned = false;
+  if (sine2 < opt.parallel_sine * opt.parallel_sine) {
+    res.degenerate = true;
+    out.overlap = overlap_midpoint(xa, ba, xb, bb);
+    s = project_point(xa * ba.values_local(out.overlap.u), xb, bb, ub0, opt);
+    s.ub = s.ua;
+    s.ua = out.overlap.u;
+    owned = s.converged && ba.owns(ba.global(s.ua)) && bb.owns(bb.global(s.ub));
+  } else {
+    s = newton_pair(xa, ba, xb, bb, ua0, ub0, opt);
+    owned = s.converged && owns_coordinate(xa, ba, s.ua, xb, bb, opt) &&
+            owns_coordinate(xb, bb, s.ub, xa, ba, opt);
+  }
+  out.ua = s.ua;
+  out.ub = s.ub;
+  res.iterations = s.iterations;
+  res.xi_A = ba.global(s.ua);
+  res.xi_B = bb.global(s.ub);
+  if (!s.converged) {
+    res.status = s.left ? ProjectionStatus::OutOfRange : ProjectionStatus::NotConverged;
+  } else if (!owned) {
+    res.status = ProjectionStatus::OutOfRange;
+  } else if (start.warm && (std::abs(s.ua - ua0) > opt.jump_fraction ||
+                            std::abs(s.ub - ub0) > opt.jump_fraction)) {
+    res.status = ProjectionStatus::Jumped;
+  } else {
+    res.status = ProjectionStatus::Converged;
+  }
+  return out;
+}
+
+} // namespace
+
+ProjectionResult closest_point_projection(const Matrix3d& control_A, const SegmentBasis& basis_A,
+                                          const Matrix3d& control_B, const SegmentBasis& basis_B,
+                                          const ProjectionStart& start,
+                                          const SplineContactOptions& options) {
+  return project(control_A, basis_A, control_B, basis_B, start, options).result;
+}
+
+namespace {
+
+/// The body of spline_contact; returns whether it wrote the tangent.
+bool fill_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double radius_A,
+                  const Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
+                  const ProjectionStart& start, const InterfaceLaw& law, SplineContactResult& out,
+                  const SplineContactOptions& options, const PairRates* rates) {
+  const LocalProjection lp = project(control_A, basis_A, control_B, basis_B, start, options);
+  out.status = lp.result.status;
+  out.degenerate = lp.result.degenerate;
+  out.iterations = lp.result.iterations;
+  out.xi_A = lp.result.xi_A;
+  out.xi_B = lp.result.xi_B;
+  out.active = false;
+  out.penetration_rate = 0.0;
+  out.force = 0.0;
+  out.potential = 0.0;
+  out.residual.setZero();
+
+  const Local e = evaluate(control_A, basis_A, control_B, basis_B, lp.ua, lp.ub);
+  out.point_A = control_A * e.na;
+  out.point_B = control_B * e.nb;
+  out.distance = e.g.norm();
+  out.gap = out.distance - (radius_A + radius_B);
+  out.penetration = -out.gap;
+  out.normal.setZero();
+
+  const bool owned =
+      out.status == ProjectionStatus::Converged || out.status == ProjectionStatus::Jumped;
+  if (!owned) {
+    return false;
+  }
+  if (!(out.distance > 1e-14 * (e.ga.norm() + e.gb.norm()))) {
+    out.status = ProjectionStatus::NotConverged; // centre lines intersect: no normal
+    return false;
+  }
+  const double dist = out.distance;
+  out.normal = e.g / dist;
+  const double p = out.penetration;
+  if (!(p > 0.0)) {
+    return false;
+  }
+
+  // grad psi = grad Phi* / |g|; on the degenerate path Phi* also changes through u_A(x).
+  Vec6 w;
+  w << e.na, -e.nb;
+  Vec18 grad_psi = kron(w, out.normal);
+  Vec18 grad_xi;
+  Mat18 hess_xi;
+  if (out.degenerate) {
+    overlap_derivatives(lp.overlap, grad_xi, hess_xi);
+    grad_psi += (e.r(0) / dist) * grad_xi;
+  }
+
+  Vec18 velocity = Vec18::Zero();
+  if (rates != nullptr) {
+    for (int k = 0; k < 3; ++k) {
+      velocity.segment<3>(3 * k) = rates->velocity_A.col(k);
+      velocity.segment<3>(9 + 3 * k) = rates->velocity_B.col(k);
+    }
+    out.penetration_rate = -grad_psi.dot(velocity);
+  }
+  const double pdot = out.penetration_rate;
+  out.force = law.force(p, pdot);
+  out.potential = law.potential(p);
+  out.active = true;
+  out.residual = -out.force * grad_psi;
+  if (!options.compute_tangent) {
+    return false;
+  }
+
+  // Hessian of Phi*(x), then of psi; residual = -f grad psi with f = f(p, pdot), p = R - psi,
+  // pdot = -grad psi . v, v = v(x), so
+  // tangent = f_p grad psi grad psi^T - f hess psi - f_pdot grad psi grad pdot^T.
+  Vec6 wa;
+  wa << e.dna, Vector3d::Zero();
+  Vec6 wb;
+  wb << Vector3d::Zero(), -e.dnb;
+  const Vec18 da = kron(wa, e.g) + kron(w, e.ga);
+  const Vec18 db = kron(wb, e.g) + kron(w, e.gb);
+  const double f = out.force;
+  const double fp = law.stiffness(p, pdot);
+  const double fv = rates != nullptr ? law.damping(p, pdot) : 0.0;
+  if (!out.degenerate) {
+    // hess psi = (kron(w w^T, I) - D^T H^-1 D - grad psi grad psi^T) / |g|, assembled straight
+    // into the tangent: a rank-1 term, a rank-2 term and the 108 non-zeros of the Kronecker
+    // product.
+    const double det = e.h(0, 0) * e.h(1, 1) - e.h(0, 1) * e.h(0, 1);
+    const double i00 = e.h(1, 1) / det;
+    const double i01 = -e.h(0, 1) / det;
+    const double i11 = e.h(0, 0) / det;
+    const double c = f / dist;
+    const Vec18 ha = i00 * da + i01 * db; // H^-1 D, row by row
+    const Vec18 hb = i01 * da + i11 * db;
+    out.tangent.noalias() = (fp + c) * grad_psi * grad_psi.transpose();
+    out.tangent.noalias() += (c * ha) * da.transpose();
+    out.tangent.noalias() += (c * hb) * db.transpose();
+    for (int j = 0; j < 6; ++j) {
+      for (int i = 0; i < 6; ++i) {
+        const double v = c * w(i) * w(j);
+        for (int d = 0; d < 3; ++d) {
+          out.tangent(3 * i + d, 3 * j + d) -= v;
+        }
+      }
+    }
+    if (fv != 0.0) {
+      Vector3d wv = Vector3d::Zero();
+      for (int k = 0; k < 6; ++k) {
+        wv += w(k) * velocity.segment<3>(3 * k);
+      }
+      const Vec18 hess_psi_v = (kron(w, wv) - ha * da.dot(velocity) - hb * db.dot(velocity) -
+                                grad_psi * grad_psi.dot(velocity)) /
+                               dist;
+      const Vec18 grad_pdot = -(hess_psi_v + rates->velocity_per_displacement * grad_psi);
+      out.tangent.noalias() -= (fv * grad_psi) * grad_pdot.transpose();
+    }
+    return true;
+  }
+
+  // Degenerate path: u_B minimises Phi at fixed u_A(x). The reduced function Phi~(u_A, x) has
+  // Phi~_xx = G^T G - D_B D_B^T / H_BB, Phi~_xu = D_A - D_B H_AB / H_BB,
+  // Phi~_uu = H_AA - H_AB^2 / H_BB, Phi~_u = r_A, and Phi*(x) = Phi~(u_A(x), x).
+  Mat18 hess_psi = Mat18::Zero();
+  add_kron(hess_psi, w, w, Matrix3d::Identity(), 1.0);
+  const double hbb = e.h(1, 1);
+  const Vec18 phi_xu = da - (e.h(0, 1) / hbb) * db;
+  const double phi_uu = e.h(0, 0) - e.h(0, 1) * e.h(0, 1) / hbb;
+  hess_psi.noalias() -= (1.0 / hbb) * db * db.transpose();
+  hess_psi.noalias() += phi_xu * grad_xi.transpose();
+  hess_psi.noalias() += grad_xi * phi_xu.transpose();
+  hess_psi.noalias() += phi_uu * grad_xi * grad_xi.transpose();
+  hess_psi += e.r(0) * hess_xi;
+  hess_psi.noalias() -= grad_psi * grad_psi.transpose();
+  hess_psi /= dist;
+  out.tangent.noalias() = fp * grad_psi * grad_psi.transpose();
+  out.tangent.noalias() -= f * hess_psi;
+  if (fv != 0.0) {
+    const Vec18 grad_pdot = -(hess_psi * velocity + rates->velocity_per_displacement * grad_psi);
+    out.tangent.noalias() -= (fv * grad_psi) * grad_pdot.transpose();
+  }
+  return true;
+}
+
+} // namespace
+
+void spline_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double radius_A,
+                    const Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
+                    const ProjectionStart& start, const InterfaceLaw& law, SplineContactResult& out,
+                    const SplineContactOptions& options, const PairRates* rates) {
+  if (!fill_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
+                    options, rates)) {
+    out.tangent.setZero();
+  }
+}
+
+SplineContactResult spline_contact(const Matrix3d& control_A, const SegmentBasis& basis_A,
+                                   double radius_A, const Matrix3d& control_B,
+                                   const SegmentBasis& basis_B, double radius_B,
+                                   const ProjectionStart& start, const InterfaceLaw& law,
+                                   const SplineContactOptions& options, const PairRates* rates) {
+  SplineContactResult out;
+  spline_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
+                 options, rates);
+  return out;
+}
+
+const char* to_string(ProjectionStatus status) {
+  switch (status) {
+  case ProjectionStatus::Converged:
+    return "converged";
+  case ProjectionStatus::OutOfRange:
+    return "out of range";
+  case ProjectionStatus::NotConverged:
+    return "not converged";
+  case ProjectionStatus::Jumped:
+    return "jumped";
+  }
+  return "unknown";
+}
+
+} // namespace yarnsim::contact

@@ -1,0 +1,229 @@
+#include "engine/run/run.hpp"
+
+#include "engine/output/csv_writer.hpp"
+#include "engine/output/results_file.hpp"
+#include "engine/solver/simulation.hpp"
+#include "yarnsim/version.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <fmt/format.h>
+#include <memory>
+#include <unistd.h>
+
+namespace yarnsim {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string hms(double seconds) {
+  if (!(seconds >= 0) || seconds > 1e7)
+    return "--:--:--";
+  const long s = static_cast<long>(seconds + 0.5);
+  return fmt::format("{:02d}:{:02d}:{:02d}", s / 3600, (s / 60) % 60, s % 60);
+}
+
+/// One CSV per monitor, a row per completed increment.
+class MonitorWriter {
+public:
+  MonitorWriter(const Model& model, const std::filesystem::path& dir) : model_(model) {
+    for (const Monitor& m : model.monitors) {
+      std::vector<std::string> cols{"time [s]"};
+      switch (m.type) {
+      case MonitorType::Node:
+        cols.insert(cols.end(), {"x [m]", "y [m]", "z [m]", "ux [m]", "uy [m]", "uz [m]",
+                                 "rx [rad]", "ry [rad]", "rz [rad]"});
+        break;
+      case MonitorType::NodeSet:
+        cols.insert(cols.end(), {"reaction_x [N]", "reaction_y [N]", "reaction_z [N]",
+                                 "reaction_mx [N m]", "reaction_my [N m]", "reaction_mz [N m]",
+                                 "mean_x [m]", "mean_y [m]", "mean_z [m]"});
+        break;
+      case MonitorType::Element:
+        for (int g = 1; g <= 2; ++g)
+          for (const char* q : {"N1 [N]", "N2 [N]", "N3 [N]", "M1 [N m]", "M2 [N m]", "M3 [N m]"})
+            cols.push_back(fmt::format("gauss{}_{}", g, q));
+        break;
+      }
+      writers_.push_back(std::make_unique<output::CsvWriter>(dir / (m.name + ".csv"), cols));
+    }
+  }
+
+  void write(const Simulation& sim, double time) {
+    const State& s = sim.state();
+    Eigen::Matrix<double, 6, Eigen::Dynamic> resultants;
+    for (std::size_t k = 0; k < model_.monitors.size(); ++k) {
+      const Monitor& m = model_.monitors[k];
+      std::vector<double> row{time};
+      if (m.type == MonitorType::Node) {
+        const Eigen::Vector3d x = s.x_n.col(m.target);
+        const Eigen::Vector3d u = x - model_.nodes[m.target];
+        const Eigen::Vector3d r = s.rotation_n.col(m.target);
+        row.insert(row.end(), {x.x(), x.y(), x.z(), u.x(), u.y(), u.z(), r.x(), r.y(), r.z()});
+      } else if (m.type == MonitorType::NodeSet) {
+        Eigen::Matrix<double, 6, 1> R = Eigen::Matrix<double, 6, 1>::Zero();
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        const auto& nodes = model_.node_sets[m.target].nodes;
+        for (int n : nodes) {
+          R += sim.reactions().col(n);
+          mean += s.x_n.col(n);
+        }
+        mean /= std::max<std::size_t>(1, nodes.size());
+        for (int i = 0; i < 6; ++i)
+          row.push_back(R(i));
+        row.insert(row.end(), {mean.x(), mean.y(), mean.z()});
+      } else {
+        if (resultants.cols() == 0)
+          resultants = sim.section_resultants();
+        for (int g = 0; g < 2; ++g)
+          for (int i = 0; i < 6; ++i)
+            row.push_back(resultants(i, 2 * m.target + g));
+      }
+      writers_[k]->row(row);
+    }
+  }
+
+private:
+  const Model& model_;
+  std::vector<std::unique_ptr<output::CsvWriter>> writers_;
+};
+
+/// Writes results, monitors and the progress line after each converged increment.
+class RunObserver final : public SimulationObserver {
+public:
+  RunObserver(const Model& model, const RunOptions& options, output::ResultsFile& results,
+              MonitorWriter& monitors)
+      : model_(model), options_(options), results_(results), monitors_(monitors),
+        tty_(isatty(fileno(stderr))), start_(Clock::now()), last_print_(start_) {
+    t_end_ = model.steps.back().end_time;
+  }
+
+  void on_increment(const Simulation& sim, const IncrementReport& r) override {
+    monitors_.write(sim, r.time);
+    const SolutionStep& step = model_.steps[r.step];
+    const bool last = r.time >= t_end_ * (1 - 1e-12);
+    if (r.increment % std::max(1, step.output_every) == 0 || last) {
+      output::StepResults out;
+      out.increment = r.increment;
+      out.time = r.time;
+      out.positions = sim.state().x_n;
+      out.rotations = sim.state().rotation_n;
+      out.reactions = sim.reactions();
+      out.section_resultants = sim.section_resultants();
+      out.scalars = {{"iterations", double(r.iterations)}, {"dt", r.dt}};
+      results_.write_step(out);
+    }
+    iterations_ += r.iterations;
+    if (options_.progress)
+      print_progress(r, last);
+  }
+
+  void on_attempt_failed(const Simulation&, double time, double dt,
+                         const std::string& why) override {
+    if (options_.progress) {
+      clear_line();
+      fmt::print(stderr, "  t = {:.6g} s, dt = {:.3g} s: {}; halving the step\n", time, dt, why);
+    }
+  }
+
+  void finish() {
+    if (options_.progress && tty_)
+      fmt::print(stderr, "\n");
+  }
+
+private:
+  void clear_line() {
+    if (tty_ && printed_)
+      fmt::print(stderr, "\r\033[K");
+  }
+
+  void print_progress(const IncrementReport& r, bool last) {
+    const auto now = Clock::now();
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double since = std::chrono::duration<double>(now - last_print_).count();
+    // On a terminal refresh at most 10 times a second; in a log every 5 s and at the end.
+    if (!last && since < (tty_ ? 0.1 : 5.0) && printed_)
+      return;
+    const double t0 = 0.0;
+    const double done = (r.time - t0) / std::max(t_end_ - t0, 1e-300);
+    const double eta = done > 0 ? elapsed * (1 - done) / done : -1;
+    const std::string line = fmt::format(
+        "step {}/{}  t = {:.5g}/{:.5g} s  dt = {:.3g} s  increment {}  iterations {} "
+        "(total {})  elapsed {}  ETA {}",
+        r.step + 1, model_.steps.size(), r.time, t_end_, r.dt, r.increment, r.iterations,
+        iterations_, hms(elapsed), hms(eta));
+    clear_line();
+    if (tty_)
+      fmt::print(stderr, "{}", line);
+    else
+      fmt::print(stderr, "{}\n", line);
+    std::fflush(stderr);
+    printed_ = true;
+    last_print_ = now;
+  }
+
+  const Model& model_;
+  const RunOptions& options_;
+  output::ResultsFile& results_;
+  MonitorWriter& monitors_;
+  bool tty_;
+  bool printed_ = false;
+  Clock::time_point start_, last_print_;
+  double t_end_ = 0;
+  long iterations_ = 0;
+};
+
+double node_radius_of(const Section& s, double element_length) {
+  if (s.shape != SectionShape::General && s.a > 0)
+    return std::max(s.a, s.b);
+  return 0.05 * element_length; // stiffness-only section: a thin tube for drawing
+}
+
+} // namespace
+
+RunSummary run_model(const Model& model, const RunOptions& options) {
+  const auto start = Clock::now();
+  Simulation sim(model, SimulationOptions{options.linear_solver, options.stop_requested});
+
+  output::Mesh mesh;
+  const int n = static_cast<int>(model.nodes.size());
+  mesh.reference_positions.resize(3, n);
+  for (int i = 0; i < n; ++i)
+    mesh.reference_positions.col(i) = model.nodes[i];
+  mesh.node_radius = Eigen::VectorXd::Zero(n);
+  for (std::size_t e = 0; e < model.elements.size(); ++e) {
+    const BeamElement& el = model.elements[e];
+    mesh.elements.push_back(el.nodes);
+    const double length = sim.assembler().references()[e].weight.sum();
+    for (int node : el.nodes)
+      mesh.node_radius(node) =
+          std::max(mesh.node_radius(node), node_radius_of(model.sections[el.section], length));
+  }
+  output::ResultsFile results(options.output_dir, mesh,
+                              output::RunMetadata{options.deck_text, options.deck_path, kVersion,
+                                                  options.threads});
+  MonitorWriter monitors(model, options.output_dir);
+  RunObserver observer(model, options, results, monitors);
+  try {
+    sim.run(&observer);
+  } catch (const Interrupted& e) {
+    observer.finish();
+    results.close("interrupted", e.what());
+    throw;
+  } catch (const std::exception& e) {
+    observer.finish();
+    results.close(fmt::format("failed: {}", e.what()), e.what());
+    throw;
+  }
+  observer.finish();
+  const RunSummary summary{sim.state().increment, sim.total_iterations(),
+                           std::chrono::duration<double>(Clock::now() - start).count()};
+  results.close("completed",
+                fmt::format("{} increments, {} Newton iterations, {:.3f} s, linear solver {}",
+                            summary.increments, summary.iterations, summary.wall_seconds,
+                            sim.linear_solver_name()));
+  return summary;
+}
+
+} // namespace yarnsim

@@ -1,0 +1,151 @@
+// Single-beam dynamic cases of shared/docs/verification.md: cantilever frequencies from a free
+// vibration, and the free-flying beam's momenta and energy after the load.
+#include "beam_models.hpp"
+#include "engine/solver/simulation.hpp"
+
+#include <gtest/gtest.h>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+namespace yarnsim {
+namespace {
+
+struct TipRecorder : SimulationObserver {
+  int node;
+  std::vector<double> t, y;
+  explicit TipRecorder(int n) : node(n) {}
+  void on_increment(const Simulation& s, const IncrementReport& r) override {
+    t.push_back(r.time);
+    y.push_back(s.state().x_n(1, node));
+  }
+};
+
+/// Frequency (rad/s) of the largest peak of the Hann-windowed spectrum of a uniformly sampled
+/// signal within [lo, hi], refined by golden-section search on |X(omega)|.
+double spectral_peak(const std::vector<double>& t, const std::vector<double>& y, double lo,
+                     double hi) {
+  const std::size_t n = y.size();
+  double mean = 0;
+  for (double v : y)
+    mean += v / n;
+  auto power = [&](double w) {
+    double re = 0, im = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const double hann = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * k / (n - 1));
+      re += hann * (y[k] - mean) * std::cos(w * t[k]);
+      im += hann * (y[k] - mean) * std::sin(w * t[k]);
+    }
+    return re * re + im * im;
+  };
+  // Coarse scan, then golden section around the best sample.
+  double best = lo, best_p = -1;
+  const int samples = 400;
+  for (int i = 0; i <= samples; ++i) {
+    const double w = lo + (hi - lo) * i / samples;
+    const double p = power(w);
+    if (p > best_p) {
+      best_p = p;
+      best = w;
+    }
+  }
+  double a = best - (hi - lo) / samples, b = best + (hi - lo) / samples;
+  const double g = (std::sqrt(5.0) - 1) / 2;
+  for (int it = 0; it < 60; ++it) {
+    const double c = b - g * (b - a), d = a + g * (b - a);
+    if (power(c) > power(d))
+      b = d;
+    else
+      a = c;
+  }
+  return 0.5 * (a + b);
+}
+
+TEST(VerificationDynamic, CantileverFrequenciesFromAFreeVibration) {
+  // Slender cantilever: EI = 1, rho A = 1, L = 1, shear and axial stiff, no rotary inertia, so the
+  // Euler-Bernoulli values omega_n = (beta_n L)^2 sqrt(EI / (rho A L^4)) apply.
+  const double L = 1, EI = 1, rhoA = 1;
+  Model m = test::straight_beam({0, 0, 0}, {L, 0, 0}, 16,
+                                test::stiffness_section(1e6, 1e6, EI, EI, rhoA));
+  m.constraints.push_back(test::clamp(1));
+  // A short transverse pulse at the tip excites the first modes, then the beam vibrates freely.
+  m.loads.push_back(NodalLoad{2, Eigen::Vector3d(0, 1e-3, 0), Eigen::Vector3d::Zero(), false,
+                              TimeTable{{0.0, 0.01, 0.02}, {0.0, 1.0, 0.0}}});
+  const double w1 = 1.875104 * 1.875104, w2 = 4.694091 * 4.694091;
+  SolutionStep step;
+  step.type = StepType::Dynamic;
+  step.newmark_beta = 0.25;
+  step.newmark_gamma = 0.5;
+  step.dt_initial = step.dt_max = step.dt_min = (2 * std::numbers::pi / w2) / 40; // T2 / 40
+  step.end_time = 16 * 2 * std::numbers::pi / w1; // 16 T1
+  step.tol_force = step.tol_increment = 1e-9;
+  m.steps.push_back(step);
+  Simulation sim(m);
+  TipRecorder rec(static_cast<int>(m.nodes.size()) - 1);
+  sim.run(&rec);
+  // Skip the pulse.
+  std::vector<double> t(rec.t.begin() + 10, rec.t.end()), y(rec.y.begin() + 10, rec.y.end());
+  const double m1 = spectral_peak(t, y, 0.7 * w1, 1.3 * w1);
+  const double m2 = spectral_peak(t, y, 0.8 * w2, 1.2 * w2);
+  std::printf("cantilever: omega1 %.5f (exact %.5f, %.3f %%), omega2 %.5f (exact %.5f, %.3f %%)\n",
+              m1, w1, 100 * (m1 / w1 - 1), m2, w2, 100 * (m2 / w2 - 1));
+  EXPECT_NEAR(m1, w1, 0.01 * w1);
+  EXPECT_NEAR(m2, w2, 0.01 * w2);
+}
+
+struct EnergyRecorder : SimulationObserver {
+  std::vector<double> t, energy, work;
+  std::vector<Eigen::Vector3d> p, L;
+  void on_increment(const Simulation& s, const IncrementReport& r) override {
+    t.push_back(r.time);
+    energy.push_back(s.kinetic_energy() + s.strain_energy());
+    work.push_back(s.external_work());
+    p.push_back(s.linear_momentum());
+    L.push_back(s.angular_momentum());
+  }
+};
+
+TEST(VerificationDynamic, FlyingBeamKeepsMomentaAndEnergyAfterTheLoad) {
+  // Simo and Vu-Quoc's free-flying beam: L = 10 at atan(4/3) to x, EA = GA = 1e4, EI = GJ = 500,
+  // rho A = 1, rho J = diag(10, 10, 20) (axis 3 along the beam); hat load on [0, 5] at one end.
+  Model m = test::straight_beam({0, 0, 0}, {6, 8, 0}, 10,
+                                test::stiffness_section(1e4, 1e4, 500, 500, 1.0,
+                                                        Eigen::Vector3d(10, 10, 20)),
+                                Eigen::Vector3d::UnitZ());
+  const TimeTable hat{{0.0, 2.5, 5.0}, {0.0, 1.0, 0.0}};
+  m.loads.push_back(NodalLoad{1, Eigen::Vector3d(20, 0, 0), Eigen::Vector3d(0, 200, 100), false, hat});
+  SolutionStep step;
+  step.type = StepType::Dynamic;
+  step.newmark_beta = 0.25;
+  step.newmark_gamma = 0.5;
+  step.dt_initial = step.dt_max = 0.05;
+  step.dt_min = 1e-4;
+  step.end_time = 15;
+  step.tol_force = step.tol_increment = 1e-10;
+  m.steps.push_back(step);
+  Simulation sim(m);
+  EnergyRecorder rec;
+  sim.run(&rec);
+  // After t = 5: compare every later increment with the state at t = 5.
+  std::size_t k5 = 0;
+  while (rec.t[k5] < 5 - 1e-9)
+    ++k5;
+  const double E5 = rec.energy[k5];
+  double drift_E = 0, drift_p = 0, drift_L = 0;
+  for (std::size_t k = k5; k < rec.t.size(); ++k) {
+    drift_E = std::max(drift_E, std::abs(rec.energy[k] - E5) / E5);
+    drift_p = std::max(drift_p, (rec.p[k] - rec.p[k5]).norm() / rec.p[k5].norm());
+    drift_L = std::max(drift_L, (rec.L[k] - rec.L[k5]).norm() / rec.L[k5].norm());
+  }
+  std::printf("flying beam, t = 5..15: energy %.6g J (work of the loads %.6g J); max relative "
+              "drift: energy %.3e, linear momentum %.3e, angular momentum %.3e\n",
+              E5, rec.work[k5], drift_E, drift_p, drift_L);
+  // The loads' work is all in the beam at t = 5 (up to the scheme's error).
+  EXPECT_NEAR(E5, rec.work[k5], 0.02 * rec.work[k5]);
+  EXPECT_LT(drift_p, 1e-9); // translation invariance of the residual: exact
+  EXPECT_LT(drift_L, 1e-2);
+  EXPECT_LT(drift_E, 1e-2);
+}
+
+} // namespace
+} // namespace yarnsim
