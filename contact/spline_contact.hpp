@@ -11,7 +11,8 @@ namespace yarnsim::contact {
 enum class ProjectionStatus {
   Converged,    ///< a strict local minimum of the distance, inside both segments' ranges
   OutOfRange,   ///< converged, or left the segment's neighbourhood, outside a range: a
-                ///< neighbouring pair owns the point and this pair contributes nothing
+                ///< neighbouring pair owns the point (none beyond a yarn's end) and this
+                ///< pair contributes nothing
   NotConverged, ///< no minimum within the iteration limit, or the centre lines intersect
                 ///< (no normal): the caller vetoes the step
   Jumped,       ///< converged in range, but the point moved more than `jump_fraction` of a
@@ -27,8 +28,10 @@ struct ProjectionStart {
 
 /// Controls of the LCP solver.
 struct SplineContactOptions {
-  int max_iterations = 50;       ///< safeguarded Newton iterations
-  double step_tolerance = 1e-12; ///< converged when a full Newton step is below this (segments)
+  int max_iterations = 50; ///< safeguarded Newton iterations
+  /// Converged when a full Newton step, or the next one predicted from the last two (quadratic
+  /// convergence), is below this (segments).
+  double step_tolerance = 1e-12;
   /// Segments whose chords make an angle with sine below this are treated as parallel.
   double parallel_sine = 1e-2;
   double jump_fraction = 0.5; ///< Jumped above this move from a warm start (segments)

@@ -1,5 +1,7 @@
 #include "engine/output/results_file.hpp"
 
+#include <chrono>
+
 #include <fmt/format.h>
 
 #include <array>
@@ -143,7 +145,14 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
   write_xdmf();
 }
 
-ResultsFile::~ResultsFile() = default;
+ResultsFile::~ResultsFile() {
+  if (xdmf_stale_) {
+    try {
+      write_xdmf();
+    } catch (...) { // a destructor never throws; the .h5 holds every step anyway
+    }
+  }
+}
 
 void ResultsFile::write_step(const StepResults& step) {
   if (!file_.valid())
@@ -262,12 +271,26 @@ void ResultsFile::write_step(const StepResults& step) {
     xdmf_contacts_ += "      </Grid>\n";
   }
   ++steps_written_;
-  write_xdmf();
+  // The XDMF is rewritten whole, so rewriting it at every step of a long run would cost the
+  // square of the step count: at most once a second, and always at the end. The .h5 holds
+  // every step as soon as this returns.
+  const auto now = std::chrono::steady_clock::now();
+  if (steps_written_ == 1 || now - last_xdmf_ >= std::chrono::seconds(1)) {
+    write_xdmf();
+    last_xdmf_ = now;
+    xdmf_stale_ = false;
+  } else {
+    xdmf_stale_ = true;
+  }
 }
 
 void ResultsFile::close(std::string_view status, std::string_view message) {
   if (!file_.valid())
     return;
+  if (xdmf_stale_) {
+    write_xdmf();
+    xdmf_stale_ = false;
+  }
   h5::write_string_attribute(file_.id(), "status", status);
   h5::write_string_attribute(file_.id(), "message", message);
   h5::flush(file_.id());

@@ -33,6 +33,7 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <chrono>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -94,7 +95,8 @@ public:
   ~ResultsFile();
 
   /// Appends one completed step as /steps/<6-digit index of this step>, flushes the file
-  /// (H5Fflush) and rewrites results.xdmf atomically (results.xdmf.tmp, then rename). Throws
+  /// (H5Fflush) and rewrites results.xdmf atomically (results.xdmf.tmp, then rename) at most once a
+  /// second (always on the first step, at close() and in the destructor). Throws
   /// std::invalid_argument when an array does not match the mesh, std::logic_error after close().
   void write_step(const StepResults& step);
 
@@ -115,6 +117,8 @@ private:
   int n_elements_ = 0;
   Eigen::Matrix3Xd reference_positions_; ///< for the displacement field
   int steps_written_ = 0;
+  std::chrono::steady_clock::time_point last_xdmf_{};
+  bool xdmf_stale_ = false; ///< steps written since the XDMF was last rewritten
   /// The <Grid>s of the written steps in the two temporal collections of results.xdmf.
   std::string xdmf_yarns_;
   std::string xdmf_contacts_;

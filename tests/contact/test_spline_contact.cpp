@@ -473,7 +473,6 @@ Weave make_weave(double x, double overlap) {
 TEST(SplineContact, ContactSlidingOverKnotsIsOwnedByExactlyOnePair) {
   const LinearPenalty law(kEps);
   std::set<int> owners_seen;
-  Vec18 dummy;
   const int steps = 1500;
   for (int s = 0; s <= steps; ++s) {
     const double x = (1.2 + 3.6 * s / steps) * kL; // crosses segments 1..5 of A

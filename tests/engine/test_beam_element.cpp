@@ -108,7 +108,8 @@ TEST(BeamElement, ResidualIsTheGradientOfTheStrainEnergy) {
 TEST(BeamElement, RigidMotionOfACurvedBeamGivesNoInternalForce) {
   const Eigen::Matrix3d X = curved_nodes();
   const BeamReference ref = make_beam_reference(X, Eigen::Vector3d(0, 1, 0), test_section());
-  std::array<GaussState, 2> history{GaussState{ref.Q0[0], {}}, GaussState{ref.Q0[1], {}}};
+  std::array<GaussState, 2> history{GaussState{ref.Q0[0], Eigen::Vector3d::Zero()},
+                                    GaussState{ref.Q0[1], Eigen::Vector3d::Zero()}};
   BeamNodalValues v{X, Eigen::Matrix3d::Zero()};
   // Ten steps of a large rigid rotation (total about 9 rad about a skew axis) and a translation.
   const Eigen::Vector3d step_rotation = Eigen::Vector3d(0.3, -0.5, 0.8).normalized() * 0.9;

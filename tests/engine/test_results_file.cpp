@@ -27,7 +27,7 @@ using yarnsim::output::RunMetadata;
 using yarnsim::output::StepResults;
 
 /// A fresh directory per test, removed afterwards.
-class ResultsDir : public ::testing::Test {
+class ResultsOutput : public ::testing::Test {
 protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -200,7 +200,7 @@ void expect_node_major(hid_t file, const std::string& path, const Matrix& m) {
       ASSERT_EQ(a.values[i * m.rows() + r], m(r, i)) << "row " << i << ", column " << r;
 }
 
-TEST_F(ResultsDir, MeshAndMetadataAreWrittenOnConstruction) {
+TEST_F(ResultsOutput, MeshAndMetadataAreWrittenOnConstruction) {
   const Mesh mesh = test_mesh();
   const RunMetadata meta = test_metadata();
   ResultsFile results(dir, mesh, meta);
@@ -228,7 +228,7 @@ TEST_F(ResultsDir, MeshAndMetadataAreWrittenOnConstruction) {
   H5Fclose(file);
 }
 
-TEST_F(ResultsDir, EveryStepIsWrittenNodeMajorWithDisplacementAndSectionResultants) {
+TEST_F(ResultsOutput, EveryStepIsWrittenNodeMajorWithDisplacementAndSectionResultants) {
   const Mesh mesh = test_mesh();
   {
     ResultsFile results(dir, mesh, test_metadata());
@@ -276,7 +276,7 @@ TEST_F(ResultsDir, EveryStepIsWrittenNodeMajorWithDisplacementAndSectionResultan
   H5Fclose(file);
 }
 
-TEST_F(ResultsDir, XdmfListsEveryStepOverTheSharedSegments) {
+TEST_F(ResultsOutput, XdmfListsEveryStepOverTheSharedSegments) {
   ResultsFile results(dir, test_mesh(), test_metadata());
   for (int k = 0; k < 3; ++k)
     results.write_step(test_step(k));
@@ -318,7 +318,7 @@ TEST_F(ResultsDir, XdmfListsEveryStepOverTheSharedSegments) {
         << name;
 }
 
-TEST_F(ResultsDir, CloseRecordsStatusAndMessage) {
+TEST_F(ResultsOutput, CloseRecordsStatusAndMessage) {
   {
     ResultsFile results(dir, test_mesh(), test_metadata());
     results.write_step(test_step(0));
@@ -333,7 +333,7 @@ TEST_F(ResultsDir, CloseRecordsStatusAndMessage) {
   H5Fclose(file);
 }
 
-TEST_F(ResultsDir, StepsAreOnDiskWhileTheWriterIsStillOpen) {
+TEST_F(ResultsOutput, StepsAreOnDiskWhileTheWriterIsStillOpen) {
   ResultsFile results(dir, test_mesh(), test_metadata());
   results.write_step(test_step(0));
   results.write_step(test_step(1));
@@ -356,7 +356,7 @@ TEST_F(ResultsDir, StepsAreOnDiskWhileTheWriterIsStillOpen) {
             2u);
 }
 
-TEST_F(ResultsDir, LongDeckTextIsKeptWhole) {
+TEST_F(ResultsOutput, LongDeckTextIsKeptWhole) {
   RunMetadata meta = test_metadata();
   meta.deck_text = std::string(200000, 'x') + "\nend";
   { ResultsFile results(dir, test_mesh(), meta); }
@@ -366,7 +366,7 @@ TEST_F(ResultsDir, LongDeckTextIsKeptWhole) {
   H5Fclose(file);
 }
 
-TEST_F(ResultsDir, ArraysThatDoNotMatchTheMeshAreRejected) {
+TEST_F(ResultsOutput, ArraysThatDoNotMatchTheMeshAreRejected) {
   Mesh bad = test_mesh();
   bad.elements.push_back({4, 5, 6});
   EXPECT_THROW(ResultsFile(dir, bad, test_metadata()), std::invalid_argument);
@@ -384,7 +384,7 @@ TEST_F(ResultsDir, ArraysThatDoNotMatchTheMeshAreRejected) {
   EXPECT_EQ(results.steps_written(), 0);
 }
 
-TEST_F(ResultsDir, FailedHdf5CallsThrowNamingTheCallTheObjectAndTheCause) {
+TEST_F(ResultsOutput, FailedHdf5CallsThrowNamingTheCallTheObjectAndTheCause) {
   namespace h5 = yarnsim::output::h5;
   fs::create_directories(dir);
   h5::Handle file = h5::create_file(dir / "plain.h5");
@@ -413,7 +413,7 @@ TEST_F(ResultsDir, FailedHdf5CallsThrowNamingTheCallTheObjectAndTheCause) {
   EXPECT_THROW(h5::write_dataset(group.id(), "short", values, wrong), std::invalid_argument);
 }
 
-TEST_F(ResultsDir, CsvHeaderAndEachRowAreOnDiskWhenTheCallReturns) {
+TEST_F(ResultsOutput, CsvHeaderAndEachRowAreOnDiskWhenTheCallReturns) {
   const fs::path path = dir / "monitors" / "tip.csv";
   CsvWriter csv(path, {"time [s]", "x [m]", "force [N]"});
   EXPECT_EQ(read_text(path), "time [s],x [m],force [N]\n");
@@ -430,7 +430,7 @@ TEST_F(ResultsDir, CsvHeaderAndEachRowAreOnDiskWhenTheCallReturns) {
 }
 
 #if defined(YARNSIM_SOURCE_DIR)
-TEST_F(ResultsDir, ParaViewOpensTheResultsWhileTheRunWrites) {
+TEST_F(ResultsOutput, ParaViewOpensTheResultsWhileTheRunWrites) {
   if (std::system("command -v pvpython > /dev/null 2>&1") != 0)
     GTEST_SKIP() << "pvpython not installed";
   ResultsFile results(dir, test_mesh(), test_metadata());
