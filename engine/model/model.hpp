@@ -124,6 +124,31 @@ struct Monitor {
   int target = 0; ///< node index, node-set index or element index
 };
 
+/// A contact curve for the beam-to-beam spline contact (formulation.md §5): a quadratic B-spline
+/// whose control points are all the structural nodes of a yarn in order, with a circular section.
+struct Spline {
+  std::string name;
+  std::vector<int> nodes; ///< control points, in order along the yarn (at least 3)
+  double radius = 0;      ///< m
+};
+
+/// Normal interface law: f = penalty p^exponent (+ damping * dp/dt while p > 0), p the
+/// penetration (formulation.md §4).
+struct InterfaceLawParameters {
+  double penalty = 0;  ///< N/m (N/m^exponent for the power law)
+  double exponent = 1; ///< 1: linear penalty
+  double damping = 0;  ///< N s/m
+};
+
+/// Spline-to-spline contact between two groups of splines (indices into Model::splines).
+struct SplineContactDefinition {
+  std::string name;
+  std::vector<int> group_a, group_b;
+  InterfaceLawParameters law;
+  bool self_contact = false; ///< pairs within one spline (beyond its neighbours)
+  double margin = 0;         ///< m, broad-phase box inflation beyond the radius; 0: the radius
+};
+
 struct Model {
   std::string title;
   std::vector<Eigen::Vector3d> nodes; ///< reference positions, m
@@ -136,6 +161,8 @@ struct Model {
   std::vector<NodalLoad> loads;
   std::vector<SolutionStep> steps;
   std::vector<Monitor> monitors;
+  std::vector<Spline> splines;
+  std::vector<SplineContactDefinition> spline_contacts;
   /// Optional user labels of nodes (deck ids); empty means node i is labelled i + 1.
   std::vector<long> node_labels;
 
