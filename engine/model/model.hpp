@@ -149,6 +149,18 @@ struct SplineContactDefinition {
   double margin = 0;         ///< m, broad-phase box inflation beyond the radius; 0: the radius
 };
 
+/// A virtual biaxial tension test on a fabric (paper §5): which node sets hold the yarn ends, so
+/// the run can write the force-strain curves (curves.csv). Warp yarns run along x, weft along y.
+struct BiaxialTest {
+  double strain_ratio = 1;   ///< k = eps_warp / eps_weft
+  double max_strain = 0.015; ///< in the larger direction
+  double loading_time = 1;   ///< s
+  double length_warp = 0;    ///< in-plane length between the ends of a warp yarn, m
+  double length_weft = 0;    ///< m
+  /// Per yarn: node sets of its start (x or y minimum) and end node.
+  std::vector<int> warp_start, warp_end, weft_start, weft_end;
+};
+
 struct Model {
   std::string title;
   std::vector<Eigen::Vector3d> nodes; ///< reference positions, m
@@ -163,6 +175,7 @@ struct Model {
   std::vector<Monitor> monitors;
   std::vector<Spline> splines;
   std::vector<SplineContactDefinition> spline_contacts;
+  std::optional<BiaxialTest> biaxial;
   /// Optional user labels of nodes (deck ids); empty means node i is labelled i + 1.
   std::vector<long> node_labels;
 
