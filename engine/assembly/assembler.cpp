@@ -3,6 +3,7 @@
 #include "engine/model/model.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -66,7 +67,13 @@ Assembler::Assembler(const Model& model, const std::vector<char>& constrained)
   }
   colours_ = colour_elements(connectivity_, n_nodes_);
 
-  // Pattern: every element's 18 x 18 block and every node's 6 x 6 block, free equations only.
+  build_pattern();
+}
+
+void Assembler::build_pattern() {
+  ++pattern_version_;
+  // Pattern: every element's 18 x 18 block, every node's 6 x 6 block and every contact
+  // coupling's 6 nodes, free equations only.
   std::vector<std::pair<int, int>> entries; // (col, row)
   entries.reserve(connectivity_.size() * 324 + static_cast<std::size_t>(n_nodes_) * 36);
   auto add_group = [&](const int* nodes, int count) {
@@ -87,6 +94,8 @@ Assembler::Assembler(const Model& model, const std::vector<char>& constrained)
     add_group(c.data(), 3);
   for (int n = 0; n < n_nodes_; ++n)
     add_group(&n, 1);
+  for (const auto& c : couplings_)
+    add_group(c.data(), 6);
   std::sort(entries.begin(), entries.end());
   entries.erase(std::unique(entries.begin(), entries.end()), entries.end());
 
@@ -175,6 +184,51 @@ void Assembler::add_node_block(int node, int row_offset, int col_offset,
       const int s = node_slots_[node][6 * (row_offset + i) + col_offset + j];
       if (s >= 0)
         values[s] += block(i, j);
+    }
+}
+
+bool Assembler::ensure_couplings(const std::vector<std::array<int, 6>>& groups) {
+  auto present = [&](const std::array<int, 6>& g) {
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b)
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) {
+            const int r = equation_[6 * g[a] + i], c = equation_[6 * g[b] + j];
+            if (r >= 0 && c >= 0 && slot_of(matrix_, r, c) < 0)
+              return false;
+          }
+    return true;
+  };
+  std::vector<std::array<int, 6>> missing;
+  for (const auto& g : groups)
+    if (!present(g))
+      missing.push_back(g);
+  if (missing.empty())
+    return false;
+  couplings_.insert(couplings_.end(), missing.begin(), missing.end());
+  std::sort(couplings_.begin(), couplings_.end());
+  couplings_.erase(std::unique(couplings_.begin(), couplings_.end()), couplings_.end());
+  build_pattern();
+  return true;
+}
+
+void Assembler::add_translation_block(const std::array<int, 6>& nodes,
+                                      const Eigen::Matrix<double, 18, 18>& block) {
+  double* values = matrix_.valuePtr();
+  for (int a = 0; a < 6; ++a)
+    for (int i = 0; i < 3; ++i) {
+      const int row = equation_[6 * nodes[a] + i];
+      if (row < 0)
+        continue;
+      for (int b = 0; b < 6; ++b)
+        for (int j = 0; j < 3; ++j) {
+          const int col = equation_[6 * nodes[b] + j];
+          if (col < 0)
+            continue;
+          const int s = slot_of(matrix_, row, col);
+          assert(s >= 0 && "contact coupling missing from the pattern");
+          values[s] += block(3 * a + i, 3 * b + j);
+        }
     }
 }
 

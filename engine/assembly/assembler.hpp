@@ -51,8 +51,24 @@ public:
   /// Current nodal values of element e.
   BeamNodalValues nodal_values(const State& state, int e) const;
 
+  /// Makes sure the pattern holds the translational blocks coupling the nodes of each group
+  /// (contact pairs: 6 control points). The pattern only grows, so it settles after the first
+  /// contacts; returns true when it changed (the solver must analyse it again).
+  bool ensure_couplings(const std::vector<std::array<int, 6>>& groups);
+  /// Counts pattern rebuilds; a solver analyses again when it changes.
+  int pattern_version() const { return pattern_version_; }
+
+  /// Adds a contact pair's 18 x 18 tangent over the translations of its 6 nodes. The pattern must
+  /// hold the coupling (ensure_couplings).
+  void add_translation_block(const std::array<int, 6>& nodes,
+                             const Eigen::Matrix<double, 18, 18>& block);
+
 private:
+  void build_pattern();
+
   int n_nodes_ = 0;
+  int pattern_version_ = 0;
+  std::vector<std::array<int, 6>> couplings_; ///< contact couplings in the pattern, sorted
   int n_equations_ = 0;
   std::vector<int> equation_;
   std::vector<std::array<int, 3>> connectivity_;

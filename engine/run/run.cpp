@@ -101,6 +101,20 @@ public:
 
   void on_increment(const Simulation& sim, const IncrementReport& r) override {
     monitors_.write(sim, r.time);
+    const SplineContactSet* contact = sim.spline_contact();
+    if (contact) {
+      if (!contact_csv_)
+        contact_csv_ = std::make_unique<output::CsvWriter>(
+            options_.output_dir / "contact.csv",
+            std::vector<std::string>{"time [s]", "candidates [-]", "active [-]",
+                                     "max_penetration [m]", "max_force [N]"});
+      const std::vector<double> row{r.time, double(contact->candidates()),
+                                    double(contact->active()), contact->max_penetration(),
+                                    contact->max_force()};
+      contact_csv_->row(row);
+      contact_status_ = fmt::format("  contacts {}  max penetration {:.3g} m", contact->active(),
+                                    contact->max_penetration());
+    }
     const SolutionStep& step = model_.steps[r.step];
     const bool last = r.time >= t_end_ * (1 - 1e-12);
     if (r.increment % std::max(1, step.output_every) == 0 || last) {
@@ -112,6 +126,22 @@ public:
       out.reactions = sim.reactions();
       out.section_resultants = sim.section_resultants();
       out.scalars = {{"iterations", double(r.iterations)}, {"dt", r.dt}};
+      if (const SplineContactSet* c = sim.spline_contact()) {
+        const std::vector<ContactPoint> points = c->points();
+        const int np = static_cast<int>(points.size());
+        out.contacts.position.resize(3, np);
+        out.contacts.normal.resize(3, np);
+        out.contacts.gap.resize(np);
+        out.contacts.force.resize(np);
+        for (int k = 0; k < np; ++k) {
+          out.contacts.position.col(k) = points[k].position;
+          out.contacts.normal.col(k) = points[k].normal;
+          out.contacts.gap(k) = points[k].gap;
+          out.contacts.force(k) = points[k].force;
+        }
+        out.scalars.push_back({"active_contacts", double(np)});
+        out.scalars.push_back({"max_penetration", c->max_penetration()});
+      }
       results_.write_step(out);
     }
     iterations_ += r.iterations;
@@ -150,9 +180,9 @@ private:
     const double eta = done > 0 ? elapsed * (1 - done) / done : -1;
     const std::string line = fmt::format(
         "step {}/{}  t = {:.5g}/{:.5g} s  dt = {:.3g} s  increment {}  iterations {} "
-        "(total {})  elapsed {}  ETA {}",
+        "(total {}){}  elapsed {}  ETA {}",
         r.step + 1, model_.steps.size(), r.time, t_end_, r.dt, r.increment, r.iterations,
-        iterations_, hms(elapsed), hms(eta));
+        iterations_, contact_status_, hms(elapsed), hms(eta));
     clear_line();
     if (tty_)
       fmt::print(stderr, "{}", line);
@@ -172,6 +202,8 @@ private:
   Clock::time_point start_, last_print_;
   double t_end_ = 0;
   long iterations_ = 0;
+  std::unique_ptr<output::CsvWriter> contact_csv_;
+  std::string contact_status_;
 };
 
 double node_radius_of(const Section& s, double element_length) {

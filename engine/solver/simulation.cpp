@@ -61,6 +61,8 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
     }
   assembler_ = std::make_unique<Assembler>(model, constrained);
   solver_ = make_linear_solver(options.linear_solver);
+  if (!model.spline_contacts.empty())
+    contact_ = std::make_unique<SplineContactSet>(model);
   solver_name_ = solver_->name();
 
   // Reference triads, lumped mass and rotary inertia (1/6, 2/3, 1/6 of each element).
@@ -169,6 +171,13 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   double last_du = 0, last_da = 0;
   int worst_dof = -1;
   for (int iter = 0; iter <= step.max_iterations; ++iter) {
+    // Contact first: new candidate pairs may grow the pattern before anything is assembled.
+    if (contact_) {
+      const std::string veto = contact_->evaluate(state_.x, true);
+      if (!veto.empty())
+        return veto;
+      assembler_->ensure_couplings(contact_->couplings());
+    }
     residual.setZero();
     assembler_->zero_matrix();
     StiffnessDamping damping;
@@ -191,6 +200,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     for (int i = 0; i < n; ++i) {
       ref_force = std::max(ref_force, residual.segment<3>(6 * i).norm());
       ref_moment = std::max(ref_moment, residual.segment<3>(6 * i + 3).norm());
+    }
+    if (contact_) {
+      contact_->assemble(residual, *assembler_, true);
+      ref_force = std::max(ref_force, contact_->max_force());
     }
 
     // Inertia (lumped) and mass-proportional damping.
@@ -314,9 +327,9 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
 
     // Solve and update.
     try {
-      if (!analysed_) {
+      if (analysed_pattern_ != assembler_->pattern_version()) {
         solver_->analyze(assembler_->matrix());
-        analysed_ = true;
+        analysed_pattern_ = assembler_->pattern_version();
       }
       solver_->factorize(assembler_->matrix());
     } catch (const LinearSolverError& e) {
@@ -397,6 +410,8 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
     state_.rotation_n.col(i) =
         unwrap_rotation(state_.Q_n[i] * Q0_[i].transpose(), state_.rotation_n.col(i));
   }
+  if (contact_)
+    contact_->commit();
   state_.x_n = state_.x;
   state_.alpha.setZero();
   state_.time = t_new;

@@ -5,6 +5,7 @@
 // Simo and Vu-Quoc's material form on rotations.
 
 #include "engine/assembly/assembler.hpp"
+#include "engine/contact/spline_contact_set.hpp"
 #include "engine/model/model.hpp"
 #include "engine/solver/linear_solver.hpp"
 #include "engine/state/state.hpp"
@@ -68,6 +69,8 @@ public:
   const Model& model() const { return model_; }
   const State& state() const { return state_; }
   const Assembler& assembler() const { return *assembler_; }
+  /// The spline contact stage, or null when the model has no contact.
+  const SplineContactSet* spline_contact() const { return contact_.get(); }
   int total_iterations() const { return total_iterations_; }
   const std::string& linear_solver_name() const { return solver_name_; }
 
@@ -109,6 +112,7 @@ private:
   SimulationOptions options_;
   std::unique_ptr<Assembler> assembler_;
   std::unique_ptr<LinearSolver> solver_;
+  std::unique_ptr<SplineContactSet> contact_;
   std::string solver_name_;
   State state_;
   std::vector<Eigen::Matrix3d> Q0_; ///< reference nodal triads
@@ -122,7 +126,7 @@ private:
   double external_work_ = 0;
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
   int total_iterations_ = 0;
-  bool analysed_ = false;
+  int analysed_pattern_ = -1; ///< pattern version the solver analysed
 };
 
 } // namespace yarnsim

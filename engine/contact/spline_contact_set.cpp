@@ -1,0 +1,211 @@
+#include "engine/contact/spline_contact_set.hpp"
+
+#include "engine/assembly/assembler.hpp"
+
+#include <algorithm>
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace yarnsim {
+
+/// One contact definition: its segments (spline, segment index), the broad phase over them and
+/// the interface law.
+struct SplineContactSet::Definition {
+  std::vector<int> spline;  ///< per segment id
+  std::vector<int> segment; ///< per segment id: index along the spline
+  std::vector<double> radius;
+  std::unique_ptr<broadphase::CandidateSearch> search;
+  std::shared_ptr<const contact::InterfaceLaw> law;
+  std::vector<Eigen::AlignedBox3d> boxes;
+};
+
+namespace {
+
+std::shared_ptr<const contact::InterfaceLaw> make_law(const InterfaceLawParameters& p) {
+  std::shared_ptr<const contact::InterfaceLaw> law;
+  if (p.exponent == 1.0)
+    law = std::make_shared<contact::LinearPenalty>(p.penalty);
+  else
+    law = std::make_shared<contact::PowerLaw>(p.penalty, p.exponent);
+  if (p.damping > 0)
+    law = std::make_shared<contact::DampedLaw>(law, p.damping);
+  return law;
+}
+
+} // namespace
+
+SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
+  for (const Spline& s : model.splines)
+    curves_.emplace_back(static_cast<int>(s.nodes.size()));
+  for (const SplineContactDefinition& def : model.spline_contacts) {
+    auto d = std::make_unique<Definition>();
+    std::vector<broadphase::SegmentInfo> info;
+    double margin = def.margin;
+    for (int group = 0; group < 2; ++group)
+      for (int s : group == 0 ? def.group_a : def.group_b)
+        for (int i = 0; i < curves_[s].num_segments(); ++i) {
+          d->spline.push_back(s);
+          d->segment.push_back(i);
+          d->radius.push_back(model.splines[s].radius);
+          info.push_back({s, i, group});
+          if (def.margin <= 0)
+            margin = std::max(margin, model.splines[s].radius);
+        }
+    std::vector<std::pair<int, int>> groups{{0, 1}};
+    if (def.self_contact)
+      groups.insert(groups.end(), {{0, 0}, {1, 1}});
+    broadphase::CandidateSearchOptions options;
+    options.margin = margin;
+    options.same_curve_skip = 1;
+    options.self_contact = def.self_contact;
+    d->search = std::make_unique<broadphase::CandidateSearch>(std::move(info), groups, options);
+    d->law = make_law(def.law);
+    d->boxes.resize(d->spline.size());
+    definitions_.push_back(std::move(d));
+  }
+}
+
+SplineContactSet::~SplineContactSet() = default;
+
+std::array<int, 6> SplineContactSet::nodes_of(const Definition& d,
+                                              const broadphase::CandidatePair& p) const {
+  const auto& a = model_.splines[d.spline[p.first]].nodes;
+  const auto& b = model_.splines[d.spline[p.second]].nodes;
+  const int i = d.segment[p.first], j = d.segment[p.second];
+  return {a[i], a[i + 1], a[i + 2], b[j], b[j + 1], b[j + 2]};
+}
+
+std::string SplineContactSet::evaluate(const Eigen::Matrix3Xd& x, bool want_tangent) {
+  work_.clear();
+  for (std::size_t k = 0; k < definitions_.size(); ++k) {
+    Definition& d = *definitions_[k];
+    for (std::size_t s = 0; s < d.spline.size(); ++s) {
+      const auto& nodes = model_.splines[d.spline[s]].nodes;
+      const int i = d.segment[s];
+      Eigen::AlignedBox3d box(x.col(nodes[i]));
+      box.extend(x.col(nodes[i + 1]));
+      box.extend(x.col(nodes[i + 2]));
+      d.boxes[s] = box;
+    }
+    d.search->update(d.boxes, d.radius);
+    for (const broadphase::CandidatePair& p : d.search->candidates())
+      work_.push_back({static_cast<int>(k), p, {}});
+  }
+
+  contact::SplineContactOptions options;
+  options.compute_tangent = want_tangent;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t w = range.begin(); w != range.end(); ++w) {
+                        Work& item = work_[w];
+                        const Definition& d = *definitions_[item.definition];
+                        const std::array<int, 6> n = nodes_of(d, item.pair);
+                        Eigen::Matrix3d A, B;
+                        for (int c = 0; c < 3; ++c) {
+                          A.col(c) = x.col(n[c]);
+                          B.col(c) = x.col(n[3 + c]);
+                        }
+                        contact::ProjectionStart start;
+                        const auto it = committed_.find(
+                            Key{item.definition, item.pair.first, item.pair.second});
+                        if (it != committed_.end())
+                          start = {it->second.xi_A, it->second.xi_B, true};
+                        const auto& ca = curves_[d.spline[item.pair.first]];
+                        const auto& cb = curves_[d.spline[item.pair.second]];
+                        contact::spline_contact(A, ca.segment(d.segment[item.pair.first]),
+                                                d.radius[item.pair.first], B,
+                                                cb.segment(d.segment[item.pair.second]),
+                                                d.radius[item.pair.second], start, *d.law,
+                                                item.result, options);
+                      }
+                    });
+
+  // Veto: a pair in contact at the last converged increment whose projection failed or jumped.
+  for (const Work& item : work_) {
+    const auto status = item.result.status;
+    if (status != contact::ProjectionStatus::NotConverged &&
+        status != contact::ProjectionStatus::Jumped)
+      continue;
+    const auto it = committed_.find(Key{item.definition, item.pair.first, item.pair.second});
+    const bool was_active = it != committed_.end() && it->second.active;
+    if (was_active || item.result.active) {
+      const Definition& d = *definitions_[item.definition];
+      return fmt::format("contact '{}': projection {} between spline '{}' segment {} and spline "
+                         "'{}' segment {}",
+                         model_.spline_contacts[item.definition].name,
+                         contact::to_string(status), model_.splines[d.spline[item.pair.first]].name,
+                         d.segment[item.pair.first] + 1,
+                         model_.splines[d.spline[item.pair.second]].name,
+                         d.segment[item.pair.second] + 1);
+    }
+  }
+  return {};
+}
+
+std::vector<std::array<int, 6>> SplineContactSet::couplings() const {
+  std::vector<std::array<int, 6>> out;
+  out.reserve(work_.size());
+  for (const Work& item : work_)
+    out.push_back(nodes_of(*definitions_[item.definition], item.pair));
+  return out;
+}
+
+void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+                                bool want_tangent) const {
+  for (const Work& item : work_) {
+    if (!item.result.active)
+      continue;
+    const std::array<int, 6> n = nodes_of(*definitions_[item.definition], item.pair);
+    for (int a = 0; a < 6; ++a)
+      residual.segment<3>(6 * n[a]) += item.result.residual.segment<3>(3 * a);
+    if (want_tangent)
+      assembler.add_translation_block(n, item.result.tangent);
+  }
+}
+
+void SplineContactSet::commit() {
+  // Keep warm starts of the current candidates only; pairs that left the list start cold.
+  std::map<Key, Committed> next;
+  for (const Work& item : work_) {
+    const auto& r = item.result;
+    if (r.status == contact::ProjectionStatus::NotConverged)
+      continue;
+    next[Key{item.definition, item.pair.first, item.pair.second}] = {r.xi_A, r.xi_B, r.active};
+  }
+  committed_ = std::move(next);
+}
+
+int SplineContactSet::candidates() const { return static_cast<int>(work_.size()); }
+
+int SplineContactSet::active() const {
+  return static_cast<int>(
+      std::count_if(work_.begin(), work_.end(), [](const Work& w) { return w.result.active; }));
+}
+
+double SplineContactSet::max_penetration() const {
+  double p = 0;
+  for (const Work& w : work_)
+    if (w.result.active)
+      p = std::max(p, w.result.penetration);
+  return p;
+}
+
+double SplineContactSet::max_force() const {
+  double f = 0;
+  for (const Work& w : work_)
+    if (w.result.active)
+      f = std::max(f, w.result.force);
+  return f;
+}
+
+std::vector<ContactPoint> SplineContactSet::points() const {
+  std::vector<ContactPoint> out;
+  for (const Work& w : work_)
+    if (w.result.active)
+      out.push_back({0.5 * (w.result.point_A + w.result.point_B), w.result.normal, w.result.gap,
+                     w.result.force});
+  return out;
+}
+
+} // namespace yarnsim
