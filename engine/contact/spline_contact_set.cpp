@@ -199,6 +199,22 @@ double SplineContactSet::max_force() const {
   return f;
 }
 
+double SplineContactSet::potential() const {
+  double u = 0;
+  for (const Work& w : work_)
+    if (w.result.active)
+      u += w.result.potential;
+  return u;
+}
+
+double SplineContactSet::total_force() const {
+  double f = 0;
+  for (const Work& w : work_)
+    if (w.result.active)
+      f += w.result.force;
+  return f;
+}
+
 std::vector<ContactPoint> SplineContactSet::points() const {
   std::vector<ContactPoint> out;
   for (const Work& w : work_)

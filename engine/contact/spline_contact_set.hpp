@@ -53,6 +53,8 @@ public:
   int active() const;
   double max_penetration() const; ///< m, over active pairs (0 if none)
   double max_force() const;       ///< N
+  double potential() const;       ///< elastic energy stored in the active pairs, J
+  double total_force() const;     ///< sum of the normal forces of the active pairs, N
   std::vector<ContactPoint> points() const;
 
 private:

@@ -82,6 +82,8 @@ public:
   double kinetic_energy() const;
   /// Strain energy of the last converged increment, J.
   double strain_energy() const;
+  /// Elastic energy stored in the contacts of the last converged increment, J.
+  double contact_energy() const { return contact_ ? contact_->potential() : 0.0; }
   /// Work of the external loads up to the last converged increment (trapezoidal rule), J.
   double external_work() const { return external_work_; }
   /// Total linear momentum (kg m/s) and angular momentum about the origin (kg m^2/s).

@@ -99,3 +99,171 @@ TEST(ContactVerification, CrossingBeamsClampedMatchTheClosedForm) {
 
 } // namespace
 } // namespace yarnsim
+
+namespace yarnsim {
+namespace {
+
+/// A rigid wavy rail A (all nodes held) along x, z_A = a sin(pi x); a short beam B along y
+/// pressed onto it and pulled along x across many of A's segments.
+TEST(ContactVerification, SlidingAcrossSegmentBoundariesKeepsTheForceContinuous) {
+  const double r = 0.01, amp = 0.002, delta = 0.002;
+  auto rail_z = [&](double x) { return amp * std::sin(std::numbers::pi * x); };
+  Section s = test::stiffness_section(1e7, 1e7, 10.0, 10.0);
+  const int nA = 32;
+  Model m = test::straight_beam({-1, 0, 0}, {1, 0, 0}, nA, s);
+  for (auto& p : m.nodes)
+    p.z() = rail_z(p.x());
+  const int offset = static_cast<int>(m.nodes.size());
+  const double x0 = -0.3;
+  Model b = test::straight_beam({x0, -0.1, 2 * r + rail_z(x0)}, {x0, 0.1, 2 * r + rail_z(x0)}, 4, s,
+                                Eigen::Vector3d::UnitX());
+  m.nodes.insert(m.nodes.end(), b.nodes.begin(), b.nodes.end());
+  for (BeamElement e : b.elements) {
+    for (int& k : e.nodes)
+      k += offset;
+    m.elements.push_back(e);
+  }
+  m.node_sets = {NodeSet{"rail", {}}, NodeSet{"b_ends", {offset, offset + 8}},
+                 NodeSet{"b_start", {offset}}};
+  for (int i = 0; i < offset; ++i)
+    m.node_sets[0].nodes.push_back(i);
+  m.constraints.push_back(test::clamp(0));
+  m.constraints.push_back(Constraint{2, {false, false, false, false, true, false}}); // spin
+  // B's ends: pushed down by delta, then pulled along x by 0.6 following the rail's height.
+  const double travel = 0.6;
+  TimeTable ux, uy{{0.0}, {0.0}}, uz;
+  for (int k = 0; k <= 200; ++k) {
+    const double t = k / 200.0;
+    const double push = std::min(1.0, 10 * t);   // t in [0, 0.1]: press
+    const double move = std::max(0.0, (t - 0.1) / 0.9); // then slide
+    ux.time.push_back(t);
+    ux.value.push_back(travel * move);
+    uz.time.push_back(t);
+    uz.value.push_back(-delta * push + rail_z(x0 + travel * move) - rail_z(x0));
+  }
+  PrescribedMotion pm;
+  pm.node_set = 1;
+  pm.displacement = {ux, uy, uz};
+  m.prescribed.push_back(pm);
+  Spline sa{"rail", {}, r}, sb{"b", {}, r};
+  for (int i = 0; i < offset; ++i)
+    sa.nodes.push_back(i);
+  for (int i = 0; i <= 8; ++i)
+    sb.nodes.push_back(offset + i);
+  m.splines = {sa, sb};
+  m.spline_contacts.push_back(SplineContactDefinition{"slide", {0}, {1}, {1e5, 1.0, 0.0}, false, 0});
+  m.steps.push_back(test::static_step(1.0, 0.002, 1e-9));
+  m.steps.back().tol_increment = 1e-7;
+
+  struct ForceRecorder : SimulationObserver {
+    std::vector<double> t, f;
+    std::vector<int> active;
+    void on_increment(const Simulation& s, const IncrementReport& r) override {
+      t.push_back(r.time);
+      f.push_back(s.spline_contact()->total_force());
+      active.push_back(s.spline_contact()->active());
+    }
+  } rec;
+  Simulation sim(m);
+  sim.run(&rec);
+  // Past the pressing phase the force varies smoothly with the rail's slope: no increment may
+  // change it by more than 1 %, whether or not the point changed segment.
+  double worst = 0, mean = 0;
+  int n = 0, segment_changes = 0;
+  for (std::size_t k = 1; k < rec.t.size(); ++k) {
+    if (rec.t[k - 1] < 0.12)
+      continue;
+    worst = std::max(worst, std::abs(rec.f[k] - rec.f[k - 1]) / rec.f[k - 1]);
+    mean += rec.f[k];
+    ++n;
+    EXPECT_EQ(rec.active[k], 1) << "t = " << rec.t[k];
+  }
+  // The rail's node spacing is 1/32: the contact point crosses about 0.6 * 32 segment ends.
+  segment_changes = static_cast<int>(travel * nA);
+  std::printf("sliding: mean force %.4f N over %d increments, %d segment changes, largest change "
+              "per increment %.3f %%\n",
+              mean / n, n, segment_changes, 100 * worst);
+  EXPECT_LT(worst, 0.01);
+}
+
+} // namespace
+} // namespace yarnsim
+
+namespace yarnsim {
+namespace {
+
+/// Beam B falls onto a simply supported crossing beam A under a constant downward load (Newmark
+/// beta 0.3, gamma 0.5, the paper's scheme): B must bounce or rest on A, never pass through it,
+/// and the total energy T + U + U_contact - W_external must not grow.
+TEST(ContactVerification, DroppedBeamDoesNotPassThroughAndGainsNoEnergy) {
+  const double r = 0.01, gap = 0.005;
+  const double E = 1e9, A = std::numbers::pi * r * r, I = std::numbers::pi * std::pow(r, 4) / 4;
+  const double rho = 1000;
+  Section s = test::stiffness_section(E * A, E * A, E * I, E * I, rho * A,
+                                      Eigen::Vector3d(rho * I, rho * I, 2 * rho * I));
+  Model m = test::straight_beam({-0.5, 0, 0}, {0.5, 0, 0}, 16, s);
+  const int offset = static_cast<int>(m.nodes.size());
+  Model b = test::straight_beam({0, -0.3, 2 * r + gap}, {0, 0.3, 2 * r + gap}, 8, s,
+                                Eigen::Vector3d::UnitX());
+  m.nodes.insert(m.nodes.end(), b.nodes.begin(), b.nodes.end());
+  for (BeamElement e : b.elements) {
+    for (int& k : e.nodes)
+      k += offset;
+    m.elements.push_back(e);
+  }
+  NodeSet fallers{"b", {}};
+  for (int i = offset; i < static_cast<int>(m.nodes.size()); ++i)
+    fallers.nodes.push_back(i);
+  m.node_sets = {NodeSet{"a_ends", {0, 32}}, NodeSet{"a_start", {0}}, fallers};
+  m.constraints.push_back(Constraint{0, {true, true, true, false, false, false}});
+  m.constraints.push_back(Constraint{1, {false, false, false, true, false, false}});
+  // Gravity-like dead load on B: 5 g on its lumped nodal masses (about rho A L / n_nodes each).
+  const double node_weight = 5 * 9.81 * rho * A * 0.6 / 17;
+  m.loads.push_back(NodalLoad{2, Eigen::Vector3d(0, 0, -node_weight), Eigen::Vector3d::Zero(),
+                              false, TimeTable::constant(1.0)});
+  Spline sa{"a", {}, r}, sb{"b", {}, r};
+  for (int i = 0; i < offset; ++i)
+    sa.nodes.push_back(i);
+  for (int i = offset; i < static_cast<int>(m.nodes.size()); ++i)
+    sb.nodes.push_back(i);
+  m.splines = {sa, sb};
+  m.spline_contacts.push_back(SplineContactDefinition{"drop", {0}, {1}, {1e5, 1.0, 0.0}, false, 0});
+  SolutionStep step;
+  step.type = StepType::Dynamic;
+  step.newmark_beta = 0.3;
+  step.newmark_gamma = 0.5;
+  step.end_time = 0.2;
+  step.dt_initial = step.dt_max = 1e-4; // the documented step for this impact
+  step.dt_min = 1e-7;
+  step.tol_force = 1e-8;
+  step.tol_increment = 1e-8;
+  m.steps.push_back(step);
+
+  struct Recorder : SimulationObserver {
+    int a_mid, b_mid;
+    double worst_gap = 1e9, worst_energy = -1e9, max_work = 0;
+    int contact_increments = 0;
+    void on_increment(const Simulation& s, const IncrementReport&) override {
+      const double dz = s.state().x_n(2, b_mid) - s.state().x_n(2, a_mid);
+      worst_gap = std::min(worst_gap, dz);
+      const double e = s.kinetic_energy() + s.strain_energy() + s.contact_energy() -
+                       s.external_work();
+      worst_energy = std::max(worst_energy, e);
+      max_work = std::max(max_work, s.external_work());
+      contact_increments += s.spline_contact()->active() > 0;
+    }
+  } rec;
+  rec.a_mid = 16;
+  rec.b_mid = offset + 8;
+  Simulation sim(m);
+  sim.run(&rec);
+  std::printf("drop: %d increments in contact, smallest centre-line distance %.5f m (2r = %.3f), "
+              "largest energy gain %.3e J of %.3e J work\n",
+              rec.contact_increments, rec.worst_gap, 2 * r, rec.worst_energy, rec.max_work);
+  EXPECT_GT(rec.contact_increments, 10);
+  EXPECT_GT(rec.worst_gap, r);                        // never through the other beam's centre line
+  EXPECT_LT(rec.worst_energy, 1e-3 * rec.max_work);   // no energy created
+}
+
+} // namespace
+} // namespace yarnsim
