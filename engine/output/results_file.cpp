@@ -94,11 +94,12 @@ void append_grid_scalar(std::string& xml, std::string_view name, double value) {
 } // namespace
 
 ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
-                         const RunMetadata& meta)
+                         const RunMetadata& meta,
+                         std::chrono::milliseconds xdmf_interval)
     : h5_path_(dir / kH5Name), xdmf_path_(dir / kXdmfName),
       n_nodes_(static_cast<int>(mesh.reference_positions.cols())),
       n_elements_(static_cast<int>(mesh.elements.size())),
-      reference_positions_(mesh.reference_positions) {
+      reference_positions_(mesh.reference_positions), xdmf_interval_(xdmf_interval) {
   require_size("mesh node_radius", mesh.node_radius.size(), n_nodes_);
   for (std::size_t e = 0; e < mesh.elements.size(); ++e)
     for (int node : mesh.elements[e])
@@ -275,7 +276,7 @@ void ResultsFile::write_step(const StepResults& step) {
   // square of the step count: at most once a second, and always at the end. The .h5 holds
   // every step as soon as this returns.
   const auto now = std::chrono::steady_clock::now();
-  if (steps_written_ == 1 || now - last_xdmf_ >= std::chrono::seconds(1)) {
+  if (steps_written_ == 1 || now - last_xdmf_ >= xdmf_interval_) {
     write_xdmf();
     last_xdmf_ = now;
     xdmf_stale_ = false;

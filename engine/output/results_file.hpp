@@ -86,7 +86,9 @@ public:
   /// Creates dir (if needed), dir/results.h5 (truncating) with /mesh and the metadata attributes,
   /// and dir/results.xdmf (no steps yet). Throws std::invalid_argument for an inconsistent mesh
   /// (sizes, node indices out of range) and std::runtime_error when a file cannot be written.
-  ResultsFile(const std::filesystem::path& dir, const Mesh& mesh, const RunMetadata& meta);
+  /// xdmf_interval: the shortest time between two rewrites of results.xdmf.
+  ResultsFile(const std::filesystem::path& dir, const Mesh& mesh, const RunMetadata& meta,
+              std::chrono::milliseconds xdmf_interval = std::chrono::seconds(1));
   ResultsFile(const ResultsFile&) = delete;
   ResultsFile& operator=(const ResultsFile&) = delete;
   ResultsFile(ResultsFile&&) noexcept = default;
@@ -118,6 +120,7 @@ private:
   Eigen::Matrix3Xd reference_positions_; ///< for the displacement field
   int steps_written_ = 0;
   std::chrono::steady_clock::time_point last_xdmf_{};
+  std::chrono::milliseconds xdmf_interval_{1000};
   bool xdmf_stale_ = false; ///< steps written since the XDMF was last rewritten
   /// The <Grid>s of the written steps in the two temporal collections of results.xdmf.
   std::string xdmf_yarns_;

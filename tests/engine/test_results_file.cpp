@@ -203,7 +203,7 @@ void expect_node_major(hid_t file, const std::string& path, const Matrix& m) {
 TEST_F(ResultsOutput, MeshAndMetadataAreWrittenOnConstruction) {
   const Mesh mesh = test_mesh();
   const RunMetadata meta = test_metadata();
-  ResultsFile results(dir, mesh, meta);
+  ResultsFile results(dir, mesh, meta, std::chrono::milliseconds(0));
   EXPECT_EQ(results.steps_written(), 0);
   EXPECT_TRUE(fs::exists(dir / "results.xdmf"));
 
@@ -231,7 +231,7 @@ TEST_F(ResultsOutput, MeshAndMetadataAreWrittenOnConstruction) {
 TEST_F(ResultsOutput, EveryStepIsWrittenNodeMajorWithDisplacementAndSectionResultants) {
   const Mesh mesh = test_mesh();
   {
-    ResultsFile results(dir, mesh, test_metadata());
+    ResultsFile results(dir, mesh, test_metadata(), std::chrono::milliseconds(0));
     for (int k = 0; k < 3; ++k)
       results.write_step(test_step(k));
     EXPECT_EQ(results.steps_written(), 3);
@@ -277,7 +277,7 @@ TEST_F(ResultsOutput, EveryStepIsWrittenNodeMajorWithDisplacementAndSectionResul
 }
 
 TEST_F(ResultsOutput, XdmfListsEveryStepOverTheSharedSegments) {
-  ResultsFile results(dir, test_mesh(), test_metadata());
+  ResultsFile results(dir, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
   for (int k = 0; k < 3; ++k)
     results.write_step(test_step(k));
 
@@ -320,7 +320,7 @@ TEST_F(ResultsOutput, XdmfListsEveryStepOverTheSharedSegments) {
 
 TEST_F(ResultsOutput, CloseRecordsStatusAndMessage) {
   {
-    ResultsFile results(dir, test_mesh(), test_metadata());
+    ResultsFile results(dir, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
     results.write_step(test_step(0));
     results.close("failed: Newton did not converge", "increment 10, residual 3.2e-2 > 1e-4");
     EXPECT_THROW(results.write_step(test_step(1)), std::logic_error);
@@ -334,7 +334,7 @@ TEST_F(ResultsOutput, CloseRecordsStatusAndMessage) {
 }
 
 TEST_F(ResultsOutput, StepsAreOnDiskWhileTheWriterIsStillOpen) {
-  ResultsFile results(dir, test_mesh(), test_metadata());
+  ResultsFile results(dir, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
   results.write_step(test_step(0));
   results.write_step(test_step(1));
 
@@ -359,7 +359,7 @@ TEST_F(ResultsOutput, StepsAreOnDiskWhileTheWriterIsStillOpen) {
 TEST_F(ResultsOutput, LongDeckTextIsKeptWhole) {
   RunMetadata meta = test_metadata();
   meta.deck_text = std::string(200000, 'x') + "\nend";
-  { ResultsFile results(dir, test_mesh(), meta); }
+  { ResultsFile results(dir, test_mesh(), meta, std::chrono::milliseconds(0)); }
   const hid_t file = open_read_only(dir / "results.h5");
   ASSERT_GE(file, 0);
   EXPECT_EQ(read_string_attribute(file, "deck_text"), meta.deck_text);
@@ -371,7 +371,7 @@ TEST_F(ResultsOutput, ArraysThatDoNotMatchTheMeshAreRejected) {
   bad.elements.push_back({4, 5, 6});
   EXPECT_THROW(ResultsFile(dir, bad, test_metadata()), std::invalid_argument);
 
-  ResultsFile results(dir, test_mesh(), test_metadata());
+  ResultsFile results(dir, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
   StepResults s = test_step(1);
   s.section_resultants.resize(6, kElements);
   EXPECT_THROW(results.write_step(s), std::invalid_argument);
@@ -433,7 +433,7 @@ TEST_F(ResultsOutput, CsvHeaderAndEachRowAreOnDiskWhenTheCallReturns) {
 TEST_F(ResultsOutput, ParaViewOpensTheResultsWhileTheRunWrites) {
   if (std::system("command -v pvpython > /dev/null 2>&1") != 0)
     GTEST_SKIP() << "pvpython not installed";
-  ResultsFile results(dir, test_mesh(), test_metadata());
+  ResultsFile results(dir, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
   results.write_step(test_step(0));
   results.write_step(test_step(2));
   const fs::path log = dir / "check-xdmf.log";
