@@ -89,6 +89,63 @@ private:
   std::vector<std::unique_ptr<output::CsvWriter>> writers_;
 };
 
+/// The force-strain curves of a biaxial test (paper §5, Fig. 3): per increment the mean strain
+/// of the warp and of the weft yarns (change of the in-plane distance between a yarn's two ends
+/// over its in-plane length) and the total reaction along each direction, positive in tension
+/// (the mean of the pull at a yarn's two ends), then the force of every yarn.
+class BiaxialCurves {
+public:
+  BiaxialCurves(const Model& model, const std::filesystem::path& dir)
+      : model_(model), test_(*model.biaxial) {
+    std::vector<std::string> cols{"time [s]", "strain_warp [-]", "strain_weft [-]",
+                                  "force_warp [N]", "force_weft [N]"};
+    for (std::size_t i = 0; i < test_.warp_start.size(); ++i)
+      cols.push_back(fmt::format("warp{} [N]", i + 1));
+    for (std::size_t i = 0; i < test_.weft_start.size(); ++i)
+      cols.push_back(fmt::format("weft{} [N]", i + 1));
+    csv_ = std::make_unique<output::CsvWriter>(dir / "curves.csv", cols);
+  }
+
+  /// Strains and forces of the last converged increment: strain_warp, strain_weft, force_warp,
+  /// force_weft, then per yarn.
+  std::vector<double> values(const Simulation& sim) const {
+    std::vector<double> yarn_forces;
+    double strain[2] = {0, 0}, force[2] = {0, 0};
+    for (int dir = 0; dir < 2; ++dir) {
+      const auto& starts = dir == 0 ? test_.warp_start : test_.weft_start;
+      const auto& ends = dir == 0 ? test_.warp_end : test_.weft_end;
+      const double length = dir == 0 ? test_.length_warp : test_.length_weft;
+      for (std::size_t i = 0; i < starts.size(); ++i) {
+        const int a = model_.node_sets[starts[i]].nodes.front();
+        const int b = model_.node_sets[ends[i]].nodes.front();
+        const Eigen::Vector2d d0 = (model_.nodes[b] - model_.nodes[a]).head<2>();
+        const Eigen::Vector2d d = (sim.state().x_n.col(b) - sim.state().x_n.col(a)).head<2>();
+        strain[dir] += (d.norm() - d0.norm()) / length / starts.size();
+        const Eigen::Vector3d axis(d0.x() / d0.norm(), d0.y() / d0.norm(), 0.0);
+        const double f = 0.5 * (sim.reactions().col(b).head<3>().dot(axis) -
+                                sim.reactions().col(a).head<3>().dot(axis));
+        force[dir] += f;
+        yarn_forces.push_back(f);
+      }
+    }
+    std::vector<double> out{strain[0], strain[1], force[0], force[1]};
+    out.insert(out.end(), yarn_forces.begin(), yarn_forces.end());
+    return out;
+  }
+
+  void write(const Simulation& sim, double time) {
+    std::vector<double> row{time};
+    const std::vector<double> v = values(sim);
+    row.insert(row.end(), v.begin(), v.end());
+    csv_->row(row);
+  }
+
+private:
+  const Model& model_;
+  const BiaxialTest& test_;
+  std::unique_ptr<output::CsvWriter> csv_;
+};
+
 /// Writes results, monitors and the progress line after each converged increment.
 class RunObserver final : public SimulationObserver {
 public:
@@ -101,6 +158,11 @@ public:
 
   void on_increment(const Simulation& sim, const IncrementReport& r) override {
     monitors_.write(sim, r.time);
+    if (model_.biaxial) {
+      if (!curves_)
+        curves_ = std::make_unique<BiaxialCurves>(model_, options_.output_dir);
+      curves_->write(sim, r.time);
+    }
     const SplineContactSet* contact = sim.spline_contact();
     if (contact) {
       if (!contact_csv_)
@@ -141,6 +203,12 @@ public:
         }
         out.scalars.push_back({"active_contacts", double(np)});
         out.scalars.push_back({"max_penetration", c->max_penetration()});
+      }
+      if (curves_) {
+        const std::vector<double> v = curves_->values(sim);
+        const char* names[] = {"strain_warp", "strain_weft", "force_warp", "force_weft"};
+        for (int k = 0; k < 4; ++k)
+          out.scalars.push_back({names[k], v[k]});
       }
       results_.write_step(out);
     }
@@ -203,6 +271,7 @@ private:
   double t_end_ = 0;
   long iterations_ = 0;
   std::unique_ptr<output::CsvWriter> contact_csv_;
+  std::unique_ptr<BiaxialCurves> curves_;
   std::string contact_status_;
 };
 
