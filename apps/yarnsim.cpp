@@ -4,6 +4,7 @@
 #include "engine/model/deck.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
+#include "engine/study/study.hpp"
 #include "yarnsim/version.hpp"
 
 #include <CLI/CLI.hpp>
@@ -27,7 +28,15 @@ enum ExitCode : int {
 
 std::atomic<bool> g_stop{false};
 
-extern "C" void on_signal(int) { g_stop.store(true); }
+// OpenBLAS (behind UMFPACK) keeps its own thread pool. UMFPACK's dense blocks are small on
+// yarn models, where OpenBLAS's threads only spin: the paper's k = 1 case took 13.5 s with two
+// BLAS threads against 5.7 s with one. So BLAS runs on one thread, within the --threads limit,
+// and the parallelism is TBB's (assembly, contact).
+extern "C" void openblas_set_num_threads(int) __attribute__((weak));
+
+extern "C" void on_signal(int) {
+  g_stop.store(true);
+}
 
 std::string read_text(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
@@ -54,9 +63,24 @@ int main(int argc, char** argv) {
   run->add_option("--output,-o", output,
                   "Output folder (default: results/<deck name> in the current folder)");
   run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
-  run->add_option("--linear-solver", solver, "Sparse direct solver: lu or ldlt")
-      ->check(CLI::IsMember({"lu", "ldlt"}));
+  run->add_option("--linear-solver", solver,
+                  "Sparse direct solver: lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
+      ->check(CLI::IsMember({"lu", "ldlt", "eigen-lu"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
+
+  std::string study_deck;
+  CLI::App* study = app.add_subcommand(
+      "study", "Run every case of a study deck, then plot the force-strain curves and the "
+               "contact forces (docs/input.md, \"Study decks\")");
+  study->add_option("study", study_deck, "Study deck (.toml)")->required();
+  study->add_option("--output,-o", output,
+                    "Output folder (default: results/<study name> in the current folder)");
+  study->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
+  study
+      ->add_option("--linear-solver", solver,
+                   "Sparse direct solver: lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
+      ->check(CLI::IsMember({"lu", "ldlt", "eigen-lu"}));
+  study->add_flag("--quiet,-q", quiet, "No progress line");
 
   try {
     app.parse(argc, argv);
@@ -68,13 +92,53 @@ int main(int argc, char** argv) {
   // One limit for every parallel part of the run (oneTBB; the solvers use no other pool).
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                             static_cast<std::size_t>(threads));
+  if (openblas_set_num_threads)
+    openblas_set_num_threads(1);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
 
+  if (study->parsed()) {
+    const std::filesystem::path path(study_deck);
+    const std::filesystem::path dir = output.empty()
+                                          ? std::filesystem::path("results") / path.stem()
+                                          : std::filesystem::path(output);
+    try {
+      const yarnsim::Study s = yarnsim::read_study(path);
+      yarnsim::StudyOptions options;
+      options.output_dir = dir;
+      options.threads = threads;
+      options.linear_solver = yarnsim::linear_solver_kind_from(solver);
+      options.progress = !quiet;
+      options.stop_requested = &g_stop;
+      fmt::print(stderr, "yarnsim {}: study {} ({} cases), {} thread(s), output in {}\n",
+                 yarnsim::kVersion, s.title, s.cases.size(), threads, dir.string());
+      const yarnsim::StudyOutcome outcome = yarnsim::run_study(s, options);
+      for (const auto& plot : outcome.plots)
+        fmt::print(stderr, "plot: {}\n", plot.string());
+      fmt::print(stderr, "curves of all cases: {}\n", (dir / "curves.csv").string());
+      if (!outcome.failures.empty()) {
+        for (const auto& f : outcome.failures)
+          fmt::print(stderr, "error: case {}\n", f);
+        return kNoConvergence;
+      }
+      return kSuccess;
+    } catch (const yarnsim::InputError& e) {
+      fmt::print(stderr, "{}\nerror: {} problem(s); nothing was run\n", e.what(),
+                 e.messages().size());
+      return kBadInput;
+    } catch (const yarnsim::Interrupted& e) {
+      fmt::print(stderr, "{}\n", e.what());
+      return kInterrupted;
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "error: {}\n", e.what());
+      return kFailure;
+    }
+  }
+
   const std::filesystem::path deck_path(deck);
-  std::filesystem::path out_dir =
-      output.empty() ? std::filesystem::path("results") / deck_path.stem()
-                     : std::filesystem::path(output);
+  std::filesystem::path out_dir = output.empty()
+                                      ? std::filesystem::path("results") / deck_path.stem()
+                                      : std::filesystem::path(output);
   try {
     const yarnsim::Model model = yarnsim::read_deck(deck_path);
     yarnsim::RunOptions options;

@@ -15,8 +15,12 @@ using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
 /// Quadratic Lagrange shape functions on xi in [-1, 1], nodes at -1, 0, 1.
-Vector3d shape_at(double xi) { return {0.5 * xi * (xi - 1.0), 1.0 - xi * xi, 0.5 * xi * (xi + 1.0)}; }
-Vector3d shape_derivative_at(double xi) { return {xi - 0.5, -2.0 * xi, xi + 0.5}; }
+Vector3d shape_at(double xi) {
+  return {0.5 * xi * (xi - 1.0), 1.0 - xi * xi, 0.5 * xi * (xi + 1.0)};
+}
+Vector3d shape_derivative_at(double xi) {
+  return {xi - 0.5, -2.0 * xi, xi + 0.5};
+}
 
 const double kGauss = 1.0 / std::sqrt(3.0);
 
@@ -129,8 +133,8 @@ GaussPointEvaluation evaluate_gauss_point(const BeamReference& ref, const GaussS
 
   out.H_dx_dx = Qa * MN * Qa.transpose();
   out.H_da_da = Xi * MM * Xi.transpose();
-  // (d_k P)^T y = dg_k (a x y + 1/2 a x (a x y)) + g (e_k x y + 1/2 (a x (e_k x y) + e_k x (a x y)))
-  // (d_k S)^T y = dg_k (y + 1/2 a x y) + g/2 e_k x y
+  // (d_k P)^T y = dg_k (a x y + 1/2 a x (a x y)) + g (e_k x y + 1/2 (a x (e_k x y) + e_k x (a x
+  // y))) (d_k S)^T y = dg_k (y + 1/2 a x y) + g/2 e_k x y
   const Vector3d axnz = a.cross(nz);
   const Vector3d MTnz = axnz + 0.5 * a.cross(axnz);
   const Vector3d S0Tmw = mw + 0.5 * a.cross(mw);
@@ -138,8 +142,7 @@ GaussPointEvaluation evaluate_gauss_point(const BeamReference& ref, const GaussS
     const Vector3d e = Vector3d::Unit(c);
     const Vector3d dMTnz = e.cross(nz) + 0.5 * (a.cross(e.cross(nz)) + e.cross(axnz));
     out.H_dx_a.col(c) = f.dg(c) * MTnz + f.g * dMTnz + Qa * (MN * dp.col(c));
-    out.H_da_a.col(c) =
-        f.dg(c) * S0Tmw + 0.5 * f.g * e.cross(mw) + Xi * (MM * ds.col(c));
+    out.H_da_a.col(c) = f.dg(c) * S0Tmw + 0.5 * f.g * e.cross(mw) + Xi * (MM * ds.col(c));
   }
   // H_aa(k, l) = dp_k . MN dp_l + ddp_kl . nz + ds_k . MM ds_l + dds_kl . mw
   out.H_a_a = dp.transpose() * MN * dp + ds.transpose() * MM * ds;
@@ -213,8 +216,8 @@ Eigen::Matrix<double, 6, 2> beam_section_resultants(const BeamReference& ref,
     const Matrix3d QnT = history[g].Q_n.transpose();
     const Vector3d gamma =
         QnT * (rodrigues_rotation<double>(k.alpha).transpose() * k.dx) - ref.gamma0[g];
-    const Vector3d K = QnT * (rodrigues_xi<double>(k.alpha).transpose() * k.dalpha +
-                              history[g].kappa_n);
+    const Vector3d K =
+        QnT * (rodrigues_xi<double>(k.alpha).transpose() * k.dalpha + history[g].kappa_n);
     out.col(g).head<3>() = ref.C_N * gamma;
     out.col(g).tail<3>() = ref.C_M * K;
   }

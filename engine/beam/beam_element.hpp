@@ -9,7 +9,8 @@
 //   Gamma = Q^T x' - Gamma_0                        material strain (shear 1, shear 2, axial)
 //   K     = Q^T kappa = Q_n^T (Xi(alpha)^T alpha' + kappa_n)   material curvature change
 // with Q(alpha)^T Xi(alpha) = Xi(alpha)^T. The strain energy per reference length is
-//   e = 1/2 Gamma . C_N Gamma + 1/2 K . C_M K,  C_N = diag(GA1, GA2, EA),  C_M = [EI1 EI12 0; EI12 EI2 0; 0 0 GJ]
+//   e = 1/2 Gamma . C_N Gamma + 1/2 K . C_M K,  C_N = diag(GA1, GA2, EA),  C_M = [EI1 EI12 0; EI12
+//   EI2 0; 0 0 GJ]
 // The element residual is its gradient with respect to (u_i, alpha_i) and the tangent its Hessian,
 // which is symmetric because alpha enters additively within a step. A rigid motion leaves Gamma and
 // K unchanged, so it produces no internal force.
@@ -44,7 +45,7 @@ struct BeamReference {
 /// History of a Gauss point: values at the last converged step.
 struct GaussState {
   Eigen::Matrix3d Q_n = Eigen::Matrix3d::Identity(); ///< section rotation
-  Eigen::Vector3d kappa_n = Eigen::Vector3d::Zero();  ///< spatial curvature change, 1/m
+  Eigen::Vector3d kappa_n = Eigen::Vector3d::Zero(); ///< spatial curvature change, 1/m
 };
 
 /// Current nodal values of one element.
@@ -54,14 +55,16 @@ struct BeamNodalValues {
 };
 
 /// Builds the element constants. X: reference node positions (columns: first, middle, last), m;
-/// reference_vector: section axis 1 direction. Throws std::invalid_argument on a degenerate element.
+/// reference_vector: section axis 1 direction. Throws std::invalid_argument on a degenerate
+/// element.
 BeamReference make_beam_reference(const Eigen::Matrix3d& X, const Eigen::Vector3d& reference_vector,
                                   const Section& section);
 
 /// Internal force vector (gradient of the strain energy), 18 entries, N and N m conjugate to
 /// (u, alpha). If tangent is non-null it receives the consistent tangent (Hessian), 18 x 18.
 void beam_internal_force(const BeamReference& ref, const std::array<GaussState, 2>& history,
-                         const BeamNodalValues& values, ElementVector& force, ElementMatrix* tangent);
+                         const BeamNodalValues& values, ElementVector& force,
+                         ElementMatrix* tangent);
 
 /// Strain energy of the element, J.
 double beam_strain_energy(const BeamReference& ref, const std::array<GaussState, 2>& history,

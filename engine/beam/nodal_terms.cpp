@@ -25,8 +25,8 @@ void extract(const Vec3<AD>& r, Eigen::Vector3d& value, Eigen::Matrix3d& jacobia
 }
 
 template <typename T>
-void angular_rates(const NewmarkCoefficients& c, const NodeRotationHistory& h,
-                   const Vec3<T>& alpha, Vec3<T>& W, Vec3<T>& A) {
+void angular_rates(const NewmarkCoefficients& c, const NodeRotationHistory& h, const Vec3<T>& alpha,
+                   Vec3<T>& W, Vec3<T>& A) {
   const Vec3<T> Theta = h.Q_n.transpose().cast<T>() * rotation_vector_of_rodrigues<T>(alpha);
   const Vec3<T> Wn = h.W_n.cast<T>(), An = h.A_n.cast<T>();
   A = T(c.a1) * Theta - T(c.a2) * Wn - T(c.a3) * An;
@@ -43,10 +43,9 @@ void newmark_angular(const NewmarkCoefficients& c, const NodeRotationHistory& h,
   angular_rates<double>(c, h, alpha, W, A);
 }
 
-void rotary_inertia(const Eigen::Vector3d& J_material, double damping,
-                    const NewmarkCoefficients& c, const NodeRotationHistory& h,
-                    const Eigen::Vector3d& alpha, Eigen::Vector3d& residual,
-                    Eigen::Matrix3d& tangent) {
+void rotary_inertia(const Eigen::Vector3d& J_material, double damping, const NewmarkCoefficients& c,
+                    const NodeRotationHistory& h, const Eigen::Vector3d& alpha,
+                    Eigen::Vector3d& residual, Eigen::Matrix3d& tangent) {
   const Vec3<AD> a = active(alpha);
   Vec3<AD> W, A;
   angular_rates<AD>(c, h, a, W, A);

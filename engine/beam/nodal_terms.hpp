@@ -17,9 +17,9 @@ struct NewmarkCoefficients {
 
 /// Rotational state of a node at the start of the step.
 struct NodeRotationHistory {
-  Eigen::Matrix3d Q_n;       ///< rotation tensor
-  Eigen::Vector3d W_n;       ///< material angular velocity, rad/s
-  Eigen::Vector3d A_n;       ///< material angular acceleration, rad/s^2
+  Eigen::Matrix3d Q_n; ///< rotation tensor
+  Eigen::Vector3d W_n; ///< material angular velocity, rad/s
+  Eigen::Vector3d A_n; ///< material angular acceleration, rad/s^2
 };
 
 /// Material angular velocity and acceleration at the end of the step for the increment alpha,
@@ -30,10 +30,9 @@ void newmark_angular(const NewmarkCoefficients& c, const NodeRotationHistory& h,
 
 /// Inertia moment m = Q (J A + W x J W) + damping * Q J W of a node with material rotary inertia
 /// J = diag(J_material) (kg m^2): residual Xi^T m and its derivative with respect to alpha.
-void rotary_inertia(const Eigen::Vector3d& J_material, double damping,
-                    const NewmarkCoefficients& c, const NodeRotationHistory& h,
-                    const Eigen::Vector3d& alpha, Eigen::Vector3d& residual,
-                    Eigen::Matrix3d& tangent);
+void rotary_inertia(const Eigen::Vector3d& J_material, double damping, const NewmarkCoefficients& c,
+                    const NodeRotationHistory& h, const Eigen::Vector3d& alpha,
+                    Eigen::Vector3d& residual, Eigen::Matrix3d& tangent);
 
 /// External moment M (N m): dead (fixed in space) or follower (M = R M0 with R = Q(alpha) R_n the
 /// node's rotation from its reference triad). Contribution to the internal-minus-external

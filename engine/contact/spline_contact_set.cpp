@@ -88,38 +88,38 @@ std::string SplineContactSet::evaluate(const Eigen::Matrix3Xd& x, bool want_tang
       box.extend(x.col(nodes[i + 2]));
       d.boxes[s] = box;
     }
-    d.search->update(d.boxes, d.radius);
+    if (d.search->update(d.boxes, d.radius))
+      ++candidates_version_;
     for (const broadphase::CandidatePair& p : d.search->candidates())
       work_.push_back({static_cast<int>(k), p, {}});
   }
 
   contact::SplineContactOptions options;
   options.compute_tangent = want_tangent;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t w = range.begin(); w != range.end(); ++w) {
-                        Work& item = work_[w];
-                        const Definition& d = *definitions_[item.definition];
-                        const std::array<int, 6> n = nodes_of(d, item.pair);
-                        Eigen::Matrix3d A, B;
-                        for (int c = 0; c < 3; ++c) {
-                          A.col(c) = x.col(n[c]);
-                          B.col(c) = x.col(n[3 + c]);
-                        }
-                        contact::ProjectionStart start;
-                        const auto it = committed_.find(
-                            Key{item.definition, item.pair.first, item.pair.second});
-                        if (it != committed_.end())
-                          start = {it->second.xi_A, it->second.xi_B, true};
-                        const auto& ca = curves_[d.spline[item.pair.first]];
-                        const auto& cb = curves_[d.spline[item.pair.second]];
-                        contact::spline_contact(A, ca.segment(d.segment[item.pair.first]),
-                                                d.radius[item.pair.first], B,
-                                                cb.segment(d.segment[item.pair.second]),
-                                                d.radius[item.pair.second], start, *d.law,
-                                                item.result, options);
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, work_.size(), 16),
+      [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t w = range.begin(); w != range.end(); ++w) {
+          Work& item = work_[w];
+          const Definition& d = *definitions_[item.definition];
+          const std::array<int, 6> n = nodes_of(d, item.pair);
+          Eigen::Matrix3d A, B;
+          for (int c = 0; c < 3; ++c) {
+            A.col(c) = x.col(n[c]);
+            B.col(c) = x.col(n[3 + c]);
+          }
+          contact::ProjectionStart start;
+          const auto it = committed_.find(Key{item.definition, item.pair.first, item.pair.second});
+          if (it != committed_.end())
+            start = {it->second.xi_A, it->second.xi_B, true};
+          const auto& ca = curves_[d.spline[item.pair.first]];
+          const auto& cb = curves_[d.spline[item.pair.second]];
+          contact::spline_contact(A, ca.segment(d.segment[item.pair.first]),
+                                  d.radius[item.pair.first], B,
+                                  cb.segment(d.segment[item.pair.second]),
+                                  d.radius[item.pair.second], start, *d.law, item.result, options);
+        }
+      });
 
   // Veto: a pair in contact at the last converged increment whose projection failed or jumped.
   for (const Work& item : work_) {
@@ -131,13 +131,12 @@ std::string SplineContactSet::evaluate(const Eigen::Matrix3Xd& x, bool want_tang
     const bool was_active = it != committed_.end() && it->second.active;
     if (was_active || item.result.active) {
       const Definition& d = *definitions_[item.definition];
-      return fmt::format("contact '{}': projection {} between spline '{}' segment {} and spline "
-                         "'{}' segment {}",
-                         model_.spline_contacts[item.definition].name,
-                         contact::to_string(status), model_.splines[d.spline[item.pair.first]].name,
-                         d.segment[item.pair.first] + 1,
-                         model_.splines[d.spline[item.pair.second]].name,
-                         d.segment[item.pair.second] + 1);
+      return fmt::format(
+          "contact '{}': projection {} between spline '{}' segment {} and spline "
+          "'{}' segment {}",
+          model_.spline_contacts[item.definition].name, contact::to_string(status),
+          model_.splines[d.spline[item.pair.first]].name, d.segment[item.pair.first] + 1,
+          model_.splines[d.spline[item.pair.second]].name, d.segment[item.pair.second] + 1);
     }
   }
   return {};
@@ -176,7 +175,9 @@ void SplineContactSet::commit() {
   committed_ = std::move(next);
 }
 
-int SplineContactSet::candidates() const { return static_cast<int>(work_.size()); }
+int SplineContactSet::candidates() const {
+  return static_cast<int>(work_.size());
+}
 
 int SplineContactSet::active() const {
   return static_cast<int>(

@@ -40,6 +40,8 @@ public:
   /// the configuration must be vetoed (a projection of a pair in contact failed or jumped).
   std::string evaluate(const Eigen::Matrix3Xd& x, bool want_tangent);
 
+  /// Changes whenever a broad-phase search changed the candidate list.
+  int candidates_version() const { return candidates_version_; }
   /// Node groups of all current candidate pairs (6 control points each), for the pattern.
   std::vector<std::array<int, 6>> couplings() const;
 
@@ -77,6 +79,7 @@ private:
     bool active;
   };
   std::map<Key, Committed> committed_;
+  int candidates_version_ = 0;
 };
 
 } // namespace yarnsim

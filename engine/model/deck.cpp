@@ -1,6 +1,7 @@
 #include "engine/model/deck.hpp"
 
 #include "engine/model/deck_schema.hpp"
+#include "engine/textile/fabric_deck.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -8,6 +9,7 @@
 #include <fmt/format.h>
 #include <optional>
 #include <unordered_map>
+#include <unordered_set>
 
 namespace yarnsim {
 
@@ -167,6 +169,29 @@ constexpr KeySpec kMonitorKeys[] = {
 };
 constexpr TableSpec kMonitor{"[[monitors]]", kMonitorKeys};
 
+constexpr KeySpec kSplineKeys[] = {
+    {"name", Type::String, kRequired},
+    {"node_set", Type::String},
+    {"nodes", Type::Labels, kOptional, kAtLeastOne},
+    {"radius", Type::Number, kRequired, kPositive},
+};
+constexpr TableSpec kSpline{"[[splines]]", kSplineKeys};
+
+constexpr KeySpec kContactKeys[] = {
+    {"name", Type::String, kRequired},
+    {"type", Type::String, kRequired},
+    {"between", Type::Any}, // one or two groups: DeckBuilder::contact_groups() checks it
+    {"group_a", Type::Words},
+    {"group_b", Type::Words},
+    {"law", Type::String},
+    {"penalty", Type::Number, kRequired, kPositive},
+    {"exponent", Type::Number, kOptional, kAtLeastOne},
+    {"damping", Type::Number, kOptional, kNonNegative},
+    {"self_contact", Type::Boolean},
+    {"margin", Type::Number, kOptional, kNonNegative},
+};
+constexpr TableSpec kContact{"[[contacts]]", kContactKeys};
+
 constexpr KeySpec kDeckKeys[] = {
     {"title", Type::String},
     {"materials", Type::Tables, kOptional, kAnyValue, &kMaterial},
@@ -180,6 +205,8 @@ constexpr KeySpec kDeckKeys[] = {
     {"loads", Type::Tables, kOptional, kAnyValue, &kLoad},
     {"steps", Type::Tables, kRequired, kAnyValue, &kStep},
     {"monitors", Type::Tables, kOptional, kAnyValue, &kMonitor},
+    {"splines", Type::Tables, kOptional, kAnyValue, &kSpline},
+    {"contacts", Type::Tables, kOptional, kAnyValue, &kContact},
 };
 constexpr TableSpec kDeck{"the top level of the deck", kDeckKeys};
 
@@ -210,6 +237,8 @@ public:
     loads();
     steps();
     monitors();
+    splines();
+    contacts();
     check_free_nodes();
     check_mass();
     return std::move(model_);
@@ -253,17 +282,23 @@ private:
     const auto it = std::find(names.begin(), names.end(), *name);
     if (it != names.end())
       return static_cast<int>(it - names.begin());
+    t.error(key, unknown_name(names, *name, what, block));
+    return std::nullopt;
+  }
+
+  /// "no <what> named 'x'" with a suggestion, or the names there are.
+  static std::string unknown_name(const std::vector<std::string>& names, std::string_view name,
+                                  std::string_view what, std::string_view block) {
     std::vector<std::string_view> candidates(names.begin(), names.end());
-    const std::string_view suggestion = closest(*name, candidates);
-    std::string message = fmt::format("no {} named '{}'", what, *name);
+    const std::string_view suggestion = closest(name, candidates);
+    std::string message = fmt::format("no {} named '{}'", what, name);
     if (!suggestion.empty())
       message += fmt::format("; did you mean '{}'?", suggestion);
     else if (names.empty())
       message += fmt::format(" (the deck has no {})", block);
     else if (names.size() <= 8)
       message += fmt::format(" (defined: {})", fmt::join(names, ", "));
-    t.error(key, message);
-    return std::nullopt;
+    return message;
   }
 
   /// Node index of a label, or nullopt after reporting it (unless the nodes themselves are bad).
@@ -521,6 +556,13 @@ private:
 
   void add_node_set(const std::string& name, std::vector<int> nodes, const CheckedTable& t,
                     std::string_view key) {
+    // The sorted set loses the order of the deck, which tells a spline which end comes first.
+    std::vector<int> written;
+    std::unordered_set<int> seen;
+    for (int n : nodes)
+      if (seen.insert(n).second)
+        written.push_back(n);
+    node_set_order_.push_back(std::move(written));
     std::sort(nodes.begin(), nodes.end());
     nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
     add_name(node_set_names_, node_set_origins_, name, t, key, "node set");
@@ -895,6 +937,413 @@ private:
     }
   }
 
+  // -------------------------------------------------------------------------------------------
+  // Beam-to-beam spline contact (formulation.md §5): contact curves and the pairs of groups that
+  // may touch.
+
+  /// Whether the chain checks of splines can trust the nodes and elements.
+  bool chain_checkable() const { return !nodes_broken_ && !elements_broken_; }
+
+  /// The element in which nodes a and b are neighbours (first and middle, or middle and last);
+  /// -1 when there is none.
+  int element_joining(int a, int b) const {
+    for (const auto& [e, j] : incident_[static_cast<std::size_t>(a)]) {
+      const auto& nd = model_.elements[static_cast<std::size_t>(e)].nodes;
+      if ((j > 0 && nd[static_cast<std::size_t>(j - 1)] == b) ||
+          (j < 2 && nd[static_cast<std::size_t>(j + 1)] == b))
+        return e;
+    }
+    return -1;
+  }
+
+  /// Labels of the nodes next to node a along its elements.
+  std::vector<long> neighbour_labels(int a) const {
+    std::vector<long> out;
+    for (const auto& [e, j] : incident_[static_cast<std::size_t>(a)]) {
+      const auto& nd = model_.elements[static_cast<std::size_t>(e)].nodes;
+      for (int k : {j - 1, j + 1}) {
+        if (k < 0 || k > 2)
+          continue;
+        const long label = model_.node_label(nd[static_cast<std::size_t>(k)]);
+        if (std::find(out.begin(), out.end(), label) == out.end())
+          out.push_back(label);
+      }
+    }
+    return out;
+  }
+
+  /// Why node b cannot follow node a along a spline (they are not neighbours in an element).
+  std::string chain_break(int a, int b) const {
+    const long la = model_.node_label(a);
+    const long lb = model_.node_label(b);
+    for (const auto& [e, j] : incident_[static_cast<std::size_t>(a)]) {
+      const auto& nd = model_.elements[static_cast<std::size_t>(e)].nodes;
+      if (j != 1 && nd[static_cast<std::size_t>(2 - j)] == b)
+        return fmt::format("nodes {} and {} are the end nodes of element {}, so its middle node {} "
+                           "must come between them (every node is a control point)",
+                           la, lb, e + 1, model_.node_label(nd[1]));
+    }
+    const std::vector<long> next = neighbour_labels(a);
+    if (next.empty())
+      return fmt::format("node {} belongs to no element", la);
+    return fmt::format("node {} shares no element with node {} (the nodes next to node {} are {})",
+                       lb, la, la, fmt::join(next, ", "));
+  }
+
+  /// Spline nodes given as `nodes = [labels]`: in the order written, each next to the one before
+  /// it in some element.
+  std::vector<int> spline_nodes_of_list(const CheckedTable& t) const {
+    const auto labels = t.labels("nodes");
+    if (!labels)
+      return {};
+    std::vector<int> nodes = node_list(t, "nodes");
+    if (nodes.size() != labels->size())
+      return nodes; // a missing label is reported
+    if (nodes.size() < 3) {
+      t.error("nodes", fmt::format("expected at least 3 nodes (the control points of a quadratic "
+                                   "B-spline), found {}",
+                                   nodes.size()));
+      return nodes;
+    }
+    std::unordered_set<int> seen{nodes[0]};
+    for (std::size_t i = 1; i < nodes.size(); ++i) {
+      if (!seen.insert(nodes[i]).second) {
+        t.error("nodes", i,
+                fmt::format("expected each node once (a spline is an open chain), found node {} "
+                            "again",
+                            (*labels)[i]));
+        return nodes;
+      }
+      if (chain_checkable() && element_joining(nodes[i - 1], nodes[i]) < 0) {
+        t.error("nodes", i,
+                fmt::format("expected a node next to node {} along an element, found node {}: {}",
+                            (*labels)[i - 1], (*labels)[i], chain_break(nodes[i - 1], nodes[i])));
+        return nodes; // one report per spline is enough
+      }
+    }
+    return nodes;
+  }
+
+  /// The nodes of a set ordered along the elements that join them, or why they are not one open
+  /// chain. The walk starts from whichever end comes first in `written` (the deck's order).
+  struct Chain {
+    std::vector<int> nodes;
+    std::string problem; ///< empty when the nodes form one open chain
+  };
+  Chain walk_chain(const std::vector<int>& written) const {
+    std::unordered_map<int, std::size_t> position;
+    for (std::size_t i = 0; i < written.size(); ++i)
+      position.emplace(written[i], i);
+    const auto in_set = [&](int n) { return position.count(n) != 0; };
+    const auto label = [&](int n) { return model_.node_label(n); };
+    std::vector<std::vector<int>> next(written.size());
+    for (std::size_t i = 0; i < written.size(); ++i) {
+      for (const auto& [e, j] : incident_[static_cast<std::size_t>(written[i])]) {
+        const auto& nd = model_.elements[static_cast<std::size_t>(e)].nodes;
+        if (j != 1 && in_set(nd[static_cast<std::size_t>(2 - j)]) && !in_set(nd[1]))
+          return {{},
+                  fmt::format("holds nodes {} and {}, the end nodes of element {}, without its "
+                              "middle node {} (every node is a control point)",
+                              label(nd[0]), label(nd[2]), e + 1, label(nd[1]))};
+        for (int k : {j - 1, j + 1}) {
+          if (k < 0 || k > 2)
+            continue;
+          const int b = nd[static_cast<std::size_t>(k)];
+          if (in_set(b) && std::find(next[i].begin(), next[i].end(), b) == next[i].end())
+            next[i].push_back(b);
+        }
+      }
+    }
+    for (std::size_t i = 0; i < written.size(); ++i) {
+      if (next[i].empty())
+        return {{},
+                fmt::format("holds node {}, which is next to no other node of the set along an "
+                            "element",
+                            label(written[i]))};
+      if (next[i].size() > 2) {
+        std::vector<long> labels;
+        for (int b : next[i])
+          labels.push_back(label(b));
+        return {{},
+                fmt::format("branches at node {}, which is next to nodes {} of the set",
+                            label(written[i]), fmt::join(labels, ", "))};
+      }
+    }
+    const auto start = std::find_if(next.begin(), next.end(),
+                                    [](const std::vector<int>& n) { return n.size() == 1; });
+    if (start == next.end())
+      return {{}, "forms a closed loop (a spline needs an open chain with two ends)"};
+    // Every node has at most two neighbours, so from an end the walk follows a path to the
+    // other end and cannot come back.
+    std::vector<int> order{written[static_cast<std::size_t>(start - next.begin())]};
+    int previous = -1;
+    for (;;) {
+      const std::vector<int>& n = next[position.at(order.back())];
+      const auto step = std::find_if(n.begin(), n.end(), [&](int b) { return b != previous; });
+      if (step == n.end())
+        break;
+      previous = order.back();
+      order.push_back(*step);
+    }
+    if (order.size() != written.size()) {
+      const std::unordered_set<int> walked(order.begin(), order.end());
+      const auto left =
+          std::find_if(written.begin(), written.end(), [&](int n) { return walked.count(n) == 0; });
+      return {{},
+              fmt::format("falls into separate pieces: the chain from node {} to node {} leaves "
+                          "out node {}",
+                          label(order.front()), label(order.back()), label(*left))};
+    }
+    return {std::move(order), {}};
+  }
+
+  /// Spline nodes given as `node_set = "name"`: the set's nodes ordered along its elements.
+  std::vector<int> spline_nodes_of_set(const CheckedTable& t) const {
+    const std::optional<int> set = node_set(t);
+    if (!set)
+      return {};
+    const std::string& name = model_.node_sets[static_cast<std::size_t>(*set)].name;
+    const std::vector<int>& written = node_set_order_[static_cast<std::size_t>(*set)];
+    if (written.empty() && nodes_broken_)
+      return {}; // a broken [[lines]] block, reported there
+    if (written.size() < 3) {
+      t.error("node_set", fmt::format("expected a node set of at least 3 nodes (the control points "
+                                      "of a quadratic B-spline), found '{}' with {}",
+                                      name, written.size()));
+      return written;
+    }
+    if (!chain_checkable())
+      return written;
+    Chain chain = walk_chain(written);
+    if (!chain.problem.empty()) {
+      t.error("node_set", fmt::format("expected the nodes of one chain of elements, found that "
+                                      "node set '{}' {}",
+                                      name, chain.problem));
+      return written;
+    }
+    return std::move(chain.nodes);
+  }
+
+  /// [[splines]]: each spline's nodes in order along its yarn, and its radius.
+  void splines() {
+    const auto all = root_.tables("splines");
+    if (all.empty())
+      return;
+    if (chain_checkable()) {
+      incident_.assign(model_.nodes.size(), {});
+      for (std::size_t e = 0; e < model_.elements.size(); ++e)
+        for (int j = 0; j < 3; ++j)
+          incident_[static_cast<std::size_t>(model_.elements[e].nodes[static_cast<std::size_t>(j)])]
+              .emplace_back(static_cast<int>(e), j);
+    }
+    for (const CheckedTable& t : all) {
+      Spline s;
+      if (auto name = t.string("name")) {
+        s.name = *name;
+        add_name(spline_names_, spline_origins_, *name, t, "name", "spline");
+      }
+      s.radius = t.number("radius").value_or(0);
+      const bool by_set = t.present("node_set");
+      const bool by_list = t.present("nodes");
+      if (by_set && by_list)
+        t.error("nodes", "give either 'node_set' or 'nodes', not both");
+      else if (by_set)
+        s.nodes = spline_nodes_of_set(t);
+      else if (by_list)
+        s.nodes = spline_nodes_of_list(t);
+      else if (!t.misspelt("node_set") && !t.misspelt("nodes"))
+        t.error("missing required key 'node_set' or 'nodes' (the spline's nodes in order along "
+                "the yarn)");
+      model_.splines.push_back(std::move(s));
+    }
+  }
+
+  /// A spline name in a contact group and where the deck gives it.
+  struct NameAt {
+    std::string name;
+    toml::source_region where;
+    std::string path;
+  };
+
+  /// One group: a spline name or a non-empty array of them; nullopt after reporting.
+  std::optional<std::vector<NameAt>> contact_group(const toml::node& group,
+                                                   const toml::source_region& fallback,
+                                                   const std::string& path) const {
+    const auto where = [&](const toml::node& n) {
+      return n.source().begin.line != 0 ? n.source() : fallback;
+    };
+    if (const auto* s = group.as_string())
+      return std::vector<NameAt>{{std::string(s->get()), where(group), path}};
+    const toml::array* a = group.as_array();
+    if (a == nullptr || a->empty()) {
+      diagnostics_.error(where(group), path,
+                         fmt::format("expected a spline name or an array of spline names, found {}",
+                                     describe_found(group)));
+      return std::nullopt;
+    }
+    std::vector<NameAt> out;
+    bool ok = true;
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::node& item = *a->get(i);
+      const std::string item_path = fmt::format("{}[{}]", path, i);
+      if (const auto* s = item.as_string()) {
+        out.push_back({std::string(s->get()), where(item), item_path});
+      } else {
+        diagnostics_.error(
+            where(item), item_path,
+            fmt::format("expected a spline name (a string), found {}", describe_found(item)));
+        ok = false;
+      }
+    }
+    return ok ? std::optional(std::move(out)) : std::nullopt;
+  }
+
+  /// `between = [group, group]` (or one group), or `group_a` and `group_b`, resolved to spline
+  /// indices. A single group leaves group_b empty; it needs self_contact = true, which allows
+  /// contact within each group (between its splines and of a spline with itself).
+  void contact_groups(const CheckedTable& t, SplineContactDefinition& c) const {
+    const bool between = t.present("between");
+    const bool a = t.present("group_a");
+    const bool b = t.present("group_b");
+    std::vector<std::vector<NameAt>> groups;
+    bool ok = true;
+    if (between && (a || b)) {
+      t.error(a ? "group_a" : "group_b",
+              "give either 'between' or 'group_a' and 'group_b', not both");
+      return;
+    }
+    if (between) {
+      const toml::node& n = *t.node("between");
+      const toml::array* array = n.as_array();
+      if (array == nullptr || array->empty() || array->size() > 2) {
+        t.error("between", fmt::format("expected one or two groups of spline names, [[\"a\", "
+                                       "...], [\"b\", ...]], found {}",
+                                       describe_found(n)));
+        return;
+      }
+      for (std::size_t i = 0; i < array->size(); ++i) {
+        auto group = contact_group(*array->get(i), t.source("between", i),
+                                   fmt::format("{}[{}]", t.path("between"), i));
+        ok = group.has_value() && ok;
+        if (group)
+          groups.push_back(std::move(*group));
+      }
+    } else if (a) {
+      for (std::string_view key : {"group_a", "group_b"}) {
+        if (!t.present(key))
+          continue;
+        ok = t.valid(key) && ok; // a wrong type is reported by the schema
+        if (t.valid(key))
+          groups.push_back(*contact_group(*t.node(key), t.source(key), t.path(key)));
+      }
+    } else if (b) {
+      t.error("group_b", "'group_b' needs 'group_a' as well (or give 'between')");
+      return;
+    } else {
+      if (!t.misspelt("between") && !t.misspelt("group_a") && !t.misspelt("group_b"))
+        t.error("missing required key 'between' (one or two groups of spline names), or "
+                "'group_a' and 'group_b'");
+      return;
+    }
+    if (!ok)
+      return;
+
+    std::unordered_map<std::string, std::pair<std::size_t, std::string>> first; // group, path
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+      std::vector<int>& out = g == 0 ? c.group_a : c.group_b;
+      for (const NameAt& n : groups[g]) {
+        const auto it = std::find(spline_names_.begin(), spline_names_.end(), n.name);
+        if (it == spline_names_.end()) {
+          diagnostics_.error(n.where, n.path,
+                             unknown_name(spline_names_, n.name, "spline", "[[splines]]"));
+          continue;
+        }
+        if (const auto f = first.find(n.name); f != first.end()) {
+          diagnostics_.error(
+              n.where, n.path,
+              f->second.first == g
+                  ? fmt::format("expected each spline once in a group, found '{}' again (first "
+                                "at {})",
+                                n.name, f->second.second)
+                  : fmt::format("expected each spline in one group only, found '{}' in both "
+                                "groups (also at {})",
+                                n.name, f->second.second));
+          continue;
+        }
+        first.emplace(n.name, std::pair{g, n.path});
+        out.push_back(static_cast<int>(it - spline_names_.begin()));
+      }
+    }
+    // One group touches nothing but itself: that is self-contact, and must be asked for.
+    if (groups.size() == 1) {
+      if (!t.present("self_contact"))
+        t.error(between ? "between" : "group_a",
+                "expected two groups of splines, found one (a single group is for contact "
+                "within it: give self_contact = true)");
+      else if (t.boolean("self_contact") == false)
+        t.error("self_contact", "expected true with a single group of splines (contact within "
+                                "it), found false");
+    }
+  }
+
+  /// The normal interface law (formulation.md §4): linear penalty or power law.
+  void contact_law(const CheckedTable& t, InterfaceLawParameters& law) const {
+    law.penalty = t.number("penalty").value_or(0);
+    law.damping = t.number("damping").value_or(0);
+    const std::optional<std::string> name =
+        t.present("law") ? t.string("law") : std::optional<std::string>("linear");
+    if (name == "linear") {
+      if (t.present("exponent"))
+        t.error("exponent", fmt::format("'exponent' applies only to law = \"power\"; this "
+                                        "contact's law is \"linear\"{}",
+                                        t.present("law") ? "" : " (the default)"));
+    } else if (name == "power") {
+      if (!t.present("exponent"))
+        t.missing("exponent", "a number >= 1, for law = \"power\"");
+      law.exponent = t.number("exponent").value_or(1);
+    } else if (name) {
+      static constexpr std::string_view kLaws[] = {"linear", "power"};
+      const std::string_view suggestion = closest(*name, kLaws);
+      t.error("law",
+              fmt::format("expected \"linear\" or \"power\", found \"{}\"{}", *name,
+                          suggestion.empty() ? std::string()
+                                             : fmt::format("; did you mean \"{}\"?", suggestion)));
+    }
+  }
+
+  /// [[contacts]]: spline groups as indices into Model::splines, and the interface law.
+  void contacts() {
+    std::vector<std::string> names;
+    std::vector<Origin> origins;
+    for (const CheckedTable& t : root_.tables("contacts")) {
+      SplineContactDefinition c;
+      if (auto name = t.string("name")) {
+        c.name = *name;
+        add_name(names, origins, *name, t, "name", "contact");
+      }
+      // Only spline contact exists so far; the keys are read as such whatever the type says, so
+      // that their problems are reported too.
+      if (const auto type = t.string("type"); type && *type != "spline") {
+        static constexpr std::string_view kTypes[] = {"spline"};
+        const std::string_view suggestion = closest(*type, kTypes);
+        t.error("type",
+                fmt::format("expected \"spline\" (beam-to-beam spline contact, the only type so "
+                            "far), found \"{}\"{}",
+                            *type,
+                            *type == "surface"
+                                ? std::string(" (surface-to-surface contact is not available yet)")
+                            : suggestion.empty()
+                                ? std::string()
+                                : fmt::format("; did you mean \"{}\"?", suggestion)));
+      }
+      contact_groups(t, c);
+      contact_law(t, c.law);
+      c.self_contact = t.boolean("self_contact").value_or(false);
+      c.margin = t.number("margin").value_or(0);
+      model_.spline_contacts.push_back(std::move(c));
+    }
+  }
+
   /// A node that no element uses has no stiffness and would make every solve singular.
   void check_free_nodes() {
     if (nodes_broken_ || elements_broken_ || model_.elements.empty())
@@ -945,6 +1394,12 @@ private:
   Model model_;
   std::vector<std::string> material_names_, section_names_, node_set_names_;
   std::vector<Origin> material_origins_, section_origins_, node_set_origins_;
+  /// Per node set, its nodes in the order the deck gives them (generation order for [[lines]]).
+  std::vector<std::vector<int>> node_set_order_;
+  std::vector<std::string> spline_names_;
+  std::vector<Origin> spline_origins_;
+  /// Per node, the (element, position 0..2) pairs that use it; built for the spline checks.
+  std::vector<std::vector<std::pair<int, int>>> incident_;
   std::vector<const CheckedTable*> section_tables_;
   std::vector<int> used_sections_;
   std::unordered_map<long long, int> label_to_node_;
@@ -958,7 +1413,8 @@ private:
 };
 
 Model build(const toml::table& table, Diagnostics& diagnostics) {
-  Model model = DeckBuilder(table, diagnostics).build();
+  std::optional<Model> fabric = textile::read_fabric_deck(table, diagnostics); // [fabric] decks
+  Model model = fabric ? std::move(*fabric) : DeckBuilder(table, diagnostics).build();
   if (!diagnostics.empty())
     throw InputError(diagnostics.messages());
   return model;

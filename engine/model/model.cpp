@@ -19,9 +19,13 @@ double TimeTable::at(double t) const {
   return (1.0 - w) * value[i - 1] + w * value[i];
 }
 
-TimeTable TimeTable::ramp(double t_end) { return TimeTable{{0.0, t_end}, {0.0, 1.0}}; }
+TimeTable TimeTable::ramp(double t_end) {
+  return TimeTable{{0.0, t_end}, {0.0, 1.0}};
+}
 
-TimeTable TimeTable::constant(double v) { return TimeTable{{0.0}, {v}}; }
+TimeTable TimeTable::constant(double v) {
+  return TimeTable{{0.0}, {v}};
+}
 
 int Model::find_node_set(const std::string& name) const {
   for (std::size_t i = 0; i < node_sets.size(); ++i)

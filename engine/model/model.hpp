@@ -101,7 +101,7 @@ enum class StepType { Static, Dynamic, Explicit };
 /// One solution step; time runs on from the end of the previous step.
 struct SolutionStep {
   StepType type = StepType::Static;
-  double end_time = 1;  ///< s, absolute
+  double end_time = 1; ///< s, absolute
   double dt_initial = 0.1;
   double dt_min = 1e-6;
   double dt_max = 0.1;

@@ -94,8 +94,7 @@ void append_grid_scalar(std::string& xml, std::string_view name, double value) {
 } // namespace
 
 ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
-                         const RunMetadata& meta,
-                         std::chrono::milliseconds xdmf_interval)
+                         const RunMetadata& meta, std::chrono::milliseconds xdmf_interval)
     : h5_path_(dir / kH5Name), xdmf_path_(dir / kXdmfName),
       n_nodes_(static_cast<int>(mesh.reference_positions.cols())),
       n_elements_(static_cast<int>(mesh.elements.size())),

@@ -246,11 +246,11 @@ private:
     const double t0 = 0.0;
     const double done = (r.time - t0) / std::max(t_end_ - t0, 1e-300);
     const double eta = done > 0 ? elapsed * (1 - done) / done : -1;
-    const std::string line = fmt::format(
-        "step {}/{}  t = {:.5g}/{:.5g} s  dt = {:.3g} s  increment {}  iterations {} "
-        "(total {}){}  elapsed {}  ETA {}",
-        r.step + 1, model_.steps.size(), r.time, t_end_, r.dt, r.increment, r.iterations,
-        iterations_, contact_status_, hms(elapsed), hms(eta));
+    const std::string line =
+        fmt::format("step {}/{}  t = {:.5g}/{:.5g} s  dt = {:.3g} s  increment {}  iterations {} "
+                    "(total {}){}  elapsed {}  ETA {}",
+                    r.step + 1, model_.steps.size(), r.time, t_end_, r.dt, r.increment,
+                    r.iterations, iterations_, contact_status_, hms(elapsed), hms(eta));
     clear_line();
     if (tty_)
       fmt::print(stderr, "{}", line);
@@ -301,9 +301,9 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
       mesh.node_radius(node) =
           std::max(mesh.node_radius(node), node_radius_of(model.sections[el.section], length));
   }
-  output::ResultsFile results(options.output_dir, mesh,
-                              output::RunMetadata{options.deck_text, options.deck_path, kVersion,
-                                                  options.threads});
+  output::ResultsFile results(
+      options.output_dir, mesh,
+      output::RunMetadata{options.deck_text, options.deck_path, kVersion, options.threads});
   MonitorWriter monitors(model, options.output_dir);
   RunObserver observer(model, options, results, monitors);
   try {
@@ -318,8 +318,14 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
     throw;
   }
   observer.finish();
-  const RunSummary summary{sim.state().increment, sim.total_iterations(),
-                           std::chrono::duration<double>(Clock::now() - start).count()};
+  RunSummary summary;
+  summary.increments = sim.state().increment;
+  summary.iterations = sim.total_iterations();
+  summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  summary.final_positions = sim.state().x_n;
+  if (sim.spline_contact())
+    summary.final_contacts = sim.spline_contact()->points();
+  summary.linear_solver = sim.linear_solver_name();
   results.close("completed",
                 fmt::format("{} increments, {} Newton iterations, {:.3f} s, linear solver {}",
                             summary.increments, summary.iterations, summary.wall_seconds,

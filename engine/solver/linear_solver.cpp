@@ -6,11 +6,28 @@
 #include <Eigen/MetisSupport>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
+#include <Eigen/UmfPackSupport>
 #include <vector>
 
 namespace yarnsim {
 
 namespace {
+
+/// UMFPACK: symbolic analysis (column ordering) once per pattern, numeric LU per iteration.
+class UmfpackSolver final : public LinearSolver {
+public:
+  void analyze(const SparseMatrix& A) override { lu_.analyzePattern(A); }
+  void factorize(const SparseMatrix& A) override {
+    lu_.factorize(A);
+    if (lu_.info() != Eigen::Success)
+      throw LinearSolverError("UMFPACK LU factorisation failed (singular or non-finite tangent)");
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) override { return lu_.solve(b); }
+  std::string name() const override { return "lu"; }
+
+private:
+  Eigen::UmfPackLU<SparseMatrix> lu_;
+};
 
 class SparseLUSolver final : public LinearSolver {
 public:
@@ -21,7 +38,7 @@ public:
       throw LinearSolverError("sparse LU factorisation failed: " + lu_.lastErrorMessage());
   }
   Eigen::VectorXd solve(const Eigen::VectorXd& b) override { return lu_.solve(b); }
-  std::string name() const override { return "lu"; }
+  std::string name() const override { return "eigen-lu"; }
 
 private:
   Eigen::SparseLU<SparseMatrix, Eigen::MetisOrdering<int>> lu_;
@@ -68,6 +85,8 @@ private:
 
 std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind) {
   if (kind == LinearSolverKind::LU)
+    return std::make_unique<UmfpackSolver>();
+  if (kind == LinearSolverKind::EigenLU)
     return std::make_unique<SparseLUSolver>();
   return std::make_unique<SymmetricLDLTSolver>();
 }
@@ -77,7 +96,10 @@ LinearSolverKind linear_solver_kind_from(const std::string& name) {
     return LinearSolverKind::LU;
   if (name == "ldlt")
     return LinearSolverKind::LDLTSymmetric;
-  throw std::invalid_argument("unknown linear solver '" + name + "' (expected 'lu' or 'ldlt')");
+  if (name == "eigen-lu")
+    return LinearSolverKind::EigenLU;
+  throw std::invalid_argument("unknown linear solver '" + name +
+                              "' (expected 'lu', 'ldlt' or 'eigen-lu')");
 }
 
 } // namespace yarnsim

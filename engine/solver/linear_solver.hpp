@@ -18,8 +18,9 @@ class LinearSolverError : public std::runtime_error {
 };
 
 enum class LinearSolverKind {
-  LU,           ///< LU of the full (non-symmetric) tangent, Eigen SparseLU + METIS
-  LDLTSymmetric ///< LDL^T of the symmetric part (A + A^T) / 2, Eigen SimplicialLDLT + METIS
+  LU,            ///< LU of the full (non-symmetric) tangent, UMFPACK (SuiteSparse)
+  LDLTSymmetric, ///< LDL^T of the symmetric part (A + A^T) / 2, Eigen SimplicialLDLT + METIS
+  EigenLU        ///< LU of the full tangent, Eigen SparseLU + METIS (for comparison)
 };
 
 class LinearSolver {
@@ -35,6 +36,7 @@ public:
 };
 
 std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind);
-LinearSolverKind linear_solver_kind_from(const std::string& name); ///< "lu" or "ldlt"
+/// "lu", "ldlt" or "eigen-lu".
+LinearSolverKind linear_solver_kind_from(const std::string& name);
 
 } // namespace yarnsim

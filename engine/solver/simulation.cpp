@@ -5,9 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fmt/format.h>
 #include <numbers>
-#include <cstdlib>
 
 namespace yarnsim {
 
@@ -18,7 +18,8 @@ Eigen::Vector3d unwrap_rotation(const Eigen::Matrix3d& R, const Eigen::Vector3d&
   const Eigen::Vector3d v = rotation_vector(R);
   const double angle = v.norm();
   if (angle < 1e-12)
-    return previous.norm() < std::numbers::pi ? v : previous; // identity: keep full turns as they were
+    return previous.norm() < std::numbers::pi ? v
+                                              : previous; // identity: keep full turns as they were
   const Eigen::Vector3d e = v / angle;
   const double k = std::round((previous.dot(e) - angle) / (2 * std::numbers::pi));
   return (angle + 2 * std::numbers::pi * k) * e;
@@ -176,7 +177,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       const std::string veto = contact_->evaluate(state_.x, true);
       if (!veto.empty())
         return veto;
-      assembler_->ensure_couplings(contact_->couplings());
+      if (coupled_candidates_ != contact_->candidates_version()) {
+        assembler_->ensure_couplings(contact_->couplings());
+        coupled_candidates_ = contact_->candidates_version();
+      }
     }
     residual.setZero();
     assembler_->zero_matrix();
@@ -211,8 +215,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       const double cm = step.rayleigh_mass;
       for (int i = 0; i < n; ++i) {
         const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
-        const Eigen::Vector3d a = nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
-        const Eigen::Vector3d v = nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
+        const Eigen::Vector3d a =
+            nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
+        const Eigen::Vector3d v =
+            nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
         const Eigen::Vector3d f = mass_(i) * (a + cm * v);
         residual.segment<3>(6 * i) += f;
         assembler_->add_node_block(i, 0, 0,
@@ -263,15 +269,15 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         continue;
       const double v = residual(d);
       if (!std::isfinite(v))
-        return fmt::format("the residual is not finite at node {} DOF {}",
-                           model_.node_label(d / 6), dof_name(d % 6));
+        return fmt::format("the residual is not finite at node {} DOF {}", model_.node_label(d / 6),
+                           dof_name(d % 6));
       rhs(eq[d]) = -v;
       if (d % 6 < 3)
         r_force += v * v;
       else
         r_moment += v * v;
       const double scaled = std::abs(v) / (d % 6 < 3 ? std::max(ref_force, floor_force_)
-                                                      : std::max(ref_moment, floor_moment_));
+                                                     : std::max(ref_moment, floor_moment_));
       if (scaled > worst) {
         worst = scaled;
         worst_dof = d;
@@ -283,11 +289,12 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     const double rel = std::max(r_force / std::max(ref_force, floor_force_),
                                 r_moment / std::max(ref_moment, floor_moment_));
     report.residual_history.push_back(rel);
-    if (std::getenv("YARNSIM_DEBUG")) fmt::print("  iter {} rF {:.3e} rM {:.3e} refF {:.3e} refM {:.3e} du {:.3e} da {:.3e}\n", iter, r_force, r_moment, ref_force, ref_moment, last_du, last_da);
+    if (std::getenv("YARNSIM_DEBUG"))
+      fmt::print("  iter {} rF {:.3e} rM {:.3e} refF {:.3e} refM {:.3e} du {:.3e} da {:.3e}\n",
+                 iter, r_force, r_moment, ref_force, ref_moment, last_du, last_da);
 
-    const bool residual_ok =
-        r_force <= std::max(step.tol_force * ref_force, floor_force_) &&
-        r_moment <= std::max(step.tol_force * ref_moment, floor_moment_);
+    const bool residual_ok = r_force <= std::max(step.tol_force * ref_force, floor_force_) &&
+                             r_moment <= std::max(step.tol_force * ref_moment, floor_moment_);
     bool increment_ok = false;
     if (iter > 0) {
       double step_du = 0, step_da = 0;
@@ -312,9 +319,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
             reactions_(c, i) = residual(6 * i + c);
       for (int i = 0; i < n; ++i)
         if (reactions_.col(i).tail<3>().squaredNorm() > 0)
-          reactions_.col(i).tail<3>() =
-              rodrigues_xi<double>(state_.alpha.col(i)).transpose().partialPivLu().solve(
-                  Eigen::Vector3d(reactions_.col(i).tail<3>()));
+          reactions_.col(i).tail<3>() = rodrigues_xi<double>(state_.alpha.col(i))
+                                            .transpose()
+                                            .partialPivLu()
+                                            .solve(Eigen::Vector3d(reactions_.col(i).tail<3>()));
       return {};
     }
     if (iter == step.max_iterations)
@@ -322,8 +330,8 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     if (iter > 2 && rel > 1e8 * report.residual_history.front())
       return fmt::format("Newton diverged (residual grew from {:.3e} to {:.3e}); worst: node {} "
                          "DOF {}",
-                         report.residual_history.front(), rel,
-                         model_.node_label(worst_dof / 6), dof_name(worst_dof % 6));
+                         report.residual_history.front(), rel, model_.node_label(worst_dof / 6),
+                         dof_name(worst_dof % 6));
 
     // Solve and update.
     try {
@@ -336,7 +344,9 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       return e.what();
     }
     const Eigen::VectorXd delta = solver_->solve(rhs);
-    if (std::getenv("YARNSIM_DEBUG")) fmt::print("   linear solve residual {:.3e} of {:.3e}\n", (assembler_->matrix() * delta - rhs).norm(), rhs.norm());
+    if (std::getenv("YARNSIM_DEBUG"))
+      fmt::print("   linear solve residual {:.3e} of {:.3e}\n",
+                 (assembler_->matrix() * delta - rhs).norm(), rhs.norm());
     if (!delta.allFinite())
       return "the linear solve returned non-finite values";
     report.energy_history.push_back(std::abs(delta.dot(rhs)));
@@ -429,8 +439,8 @@ void Simulation::run(SimulationObserver* observer) {
     int failed = 0;
     while (t < step.end_time * (1 - 1e-12)) {
       if (options_.stop_requested && options_.stop_requested->load())
-        throw Interrupted(fmt::format("interrupted at t = {:.6g} s after increment {}", t,
-                                      state_.increment));
+        throw Interrupted(
+            fmt::format("interrupted at t = {:.6g} s after increment {}", t, state_.increment));
       // Land exactly on the end time; avoid a sliver of a last increment.
       double h = std::min(dt, step.end_time - t);
       if (step.end_time - (t + h) < 1e-3 * h)

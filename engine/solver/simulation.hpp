@@ -30,11 +30,11 @@ class Interrupted : public std::runtime_error {
 
 /// What one converged increment took.
 struct IncrementReport {
-  int step = 0;           ///< index of the solution step
-  int increment = 0;      ///< converged increments since the start of the run
-  double time = 0;        ///< s, at the end of the increment
-  double dt = 0;          ///< s
-  int iterations = 0;     ///< Newton iterations of the converged attempt
+  int step = 0;            ///< index of the solution step
+  int increment = 0;       ///< converged increments since the start of the run
+  double time = 0;         ///< s, at the end of the increment
+  double dt = 0;           ///< s
+  int iterations = 0;      ///< Newton iterations of the converged attempt
   int failed_attempts = 0; ///< attempts halved before this one converged
   /// max(force, moment) residual relative to its reference, before each solve and at the end.
   std::vector<double> residual_history;
@@ -128,7 +128,8 @@ private:
   double external_work_ = 0;
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
   int total_iterations_ = 0;
-  int analysed_pattern_ = -1; ///< pattern version the solver analysed
+  int analysed_pattern_ = -1;   ///< pattern version the solver analysed
+  int coupled_candidates_ = -1; ///< contact candidate version the pattern holds
 };
 
 } // namespace yarnsim

@@ -63,9 +63,8 @@ void BM_BeamResidualTangent(benchmark::State& state) {
     }
   }
   // Rate inverted: seconds per (1e-9 x 1000 elements) = ns per element.
-  state.counters["ns_per_element"] =
-      benchmark::Counter(1e-6, benchmark::Counter::kIsIterationInvariantRate |
-                                   benchmark::Counter::kInvert);
+  state.counters["ns_per_element"] = benchmark::Counter(
+      1e-6, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_BeamResidualTangent)->Unit(benchmark::kMicrosecond);
 
@@ -79,9 +78,8 @@ void BM_BeamResidual(benchmark::State& state) {
     }
   }
   // Rate inverted: seconds per (1e-9 x 1000 elements) = ns per element.
-  state.counters["ns_per_element"] =
-      benchmark::Counter(1e-6, benchmark::Counter::kIsIterationInvariantRate |
-                                   benchmark::Counter::kInvert);
+  state.counters["ns_per_element"] = benchmark::Counter(
+      1e-6, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_BeamResidual)->Unit(benchmark::kMicrosecond);
 
@@ -97,8 +95,8 @@ Model grid_model() {
     for (int i = 0; i <= 2 * per; ++i)
       m.nodes.emplace_back(L * i / (2 * per), 2e-3 * b, 0.0);
     for (int e = 0; e < per; ++e)
-      m.elements.push_back({{first + 2 * e, first + 2 * e + 1, first + 2 * e + 2}, 0,
-                            Eigen::Vector3d::UnitY()});
+      m.elements.push_back(
+          {{first + 2 * e, first + 2 * e + 1, first + 2 * e + 2}, 0, Eigen::Vector3d::UnitY()});
     ends.nodes.push_back(first);
     ends.nodes.push_back(first + 2 * per);
   }

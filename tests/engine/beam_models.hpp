@@ -35,7 +35,9 @@ inline Section stiffness_section(double EA, double GA, double EI, double GJ, dou
   return s;
 }
 
-inline Constraint clamp(int set) { return Constraint{set, {true, true, true, true, true, true}}; }
+inline Constraint clamp(int set) {
+  return Constraint{set, {true, true, true, true, true, true}};
+}
 
 inline SolutionStep static_step(double end, double dt, double tol = 1e-10) {
   SolutionStep s;

@@ -80,11 +80,13 @@ TEST(BeamElement, TangentMatchesFiniteDifferencesAtRandomStatesBeyondPi) {
     const double h = 1e-6;
     ElementMatrix K_fd;
     for (int j = 0; j < 18; ++j)
-      K_fd.col(j) = (force_at(s, perturbed(s.values, j, h)) - force_at(s, perturbed(s.values, j, -h))) /
-                    (2 * h);
+      K_fd.col(j) =
+          (force_at(s, perturbed(s.values, j, h)) - force_at(s, perturbed(s.values, j, -h))) /
+          (2 * h);
     const double err = (K - K_fd).norm() / K_fd.norm();
     EXPECT_LT(err, 1e-6) << "trial " << trial;
-    if (std::getenv("YARNSIM_DEBUG")) std::printf("trial %d err %.3e\n", trial, err);
+    if (std::getenv("YARNSIM_DEBUG"))
+      std::printf("trial %d err %.3e\n", trial, err);
     // The tangent is a Hessian of the strain energy, hence symmetric.
     EXPECT_LT((K - K.transpose()).norm() / K.norm(), 1e-12);
   }
@@ -139,9 +141,9 @@ TEST(Rotation, RodriguesIdentities) {
   // Spin of a varying parameter: skew(Xi da) = dQ Q^T.
   const Eigen::Vector3d da(0.3, 0.1, -0.2);
   const double h = 1e-6;
-  const Eigen::Matrix3d dQ =
-      (rodrigues_rotation<double>(Eigen::Vector3d(a + h * da)) -
-       rodrigues_rotation<double>(Eigen::Vector3d(a - h * da))) / (2 * h);
+  const Eigen::Matrix3d dQ = (rodrigues_rotation<double>(Eigen::Vector3d(a + h * da)) -
+                              rodrigues_rotation<double>(Eigen::Vector3d(a - h * da))) /
+                             (2 * h);
   EXPECT_LT((axial(dQ * Q.transpose()) - Xi * da).norm(), 1e-8);
 }
 

@@ -3,9 +3,9 @@
 #include "beam_models.hpp"
 #include "engine/solver/simulation.hpp"
 
-#include <gtest/gtest.h>
 #include <cmath>
 #include <cstdio>
+#include <gtest/gtest.h>
 #include <numbers>
 
 namespace yarnsim {
@@ -24,7 +24,8 @@ Crossing crossing_beams(double eps, bool clamped, int n_el) {
   const double I = std::numbers::pi * std::pow(radius, 4) / 4;
   Section s = test::stiffness_section(E * A, 1e3 * E * A, E * I, E * I);
   Model top = test::straight_beam({-L / 2, 0, 2 * radius}, {L / 2, 0, 2 * radius}, n_el, s);
-  Model bottom = test::straight_beam({0, -L / 2, 0}, {0, L / 2, 0}, n_el, s, Eigen::Vector3d::UnitX());
+  Model bottom =
+      test::straight_beam({0, -L / 2, 0}, {0, L / 2, 0}, n_el, s, Eigen::Vector3d::UnitX());
   Model m = top;
   const int offset = static_cast<int>(m.nodes.size());
   m.nodes.insert(m.nodes.end(), bottom.nodes.begin(), bottom.nodes.end());
@@ -37,8 +38,8 @@ Crossing crossing_beams(double eps, bool clamped, int n_el) {
   // One end of each beam is held in all translations, the other slides along the beam axis, so
   // no membrane force stiffens the beams (the closed form is for the linear beam).
   m.node_sets = {NodeSet{"fixed_ends", {0, offset}}, NodeSet{"top_mid", {n_el}},
-                 NodeSet{"top_start", {0}},         NodeSet{"bottom_start", {offset}},
-                 NodeSet{"top_end", {last}},        NodeSet{"bottom_end", {offset + last}}};
+                 NodeSet{"top_start", {0}},          NodeSet{"bottom_start", {offset}},
+                 NodeSet{"top_end", {last}},         NodeSet{"bottom_end", {offset + last}}};
   const bool r = clamped; // bending rotations held too when clamped
   m.constraints.push_back(Constraint{0, {true, true, true, false, false, false}});
   m.constraints.push_back(Constraint{4, {false, true, true, false, false, false}}); // slides in x
@@ -57,7 +58,8 @@ Crossing crossing_beams(double eps, bool clamped, int n_el) {
     b.nodes.push_back(offset + i);
   }
   m.splines = {a, b};
-  m.spline_contacts.push_back(SplineContactDefinition{"cross", {0}, {1}, {eps, 1.0, 0.0}, false, 0});
+  m.spline_contacts.push_back(
+      SplineContactDefinition{"cross", {0}, {1}, {eps, 1.0, 0.0}, false, 0});
   SolutionStep step = test::static_step(1.0, 0.25, 1e-10);
   step.tol_increment = 1e-8;
   m.steps.push_back(step);
@@ -134,7 +136,7 @@ TEST(ContactVerification, SlidingAcrossSegmentBoundariesKeepsTheForceContinuous)
   TimeTable ux, uy{{0.0}, {0.0}}, uz;
   for (int k = 0; k <= 200; ++k) {
     const double t = k / 200.0;
-    const double push = std::min(1.0, 10 * t);   // t in [0, 0.1]: press
+    const double push = std::min(1.0, 10 * t);          // t in [0, 0.1]: press
     const double move = std::max(0.0, (t - 0.1) / 0.9); // then slide
     ux.time.push_back(t);
     ux.value.push_back(travel * move);
@@ -151,7 +153,8 @@ TEST(ContactVerification, SlidingAcrossSegmentBoundariesKeepsTheForceContinuous)
   for (int i = 0; i <= 8; ++i)
     sb.nodes.push_back(offset + i);
   m.splines = {sa, sb};
-  m.spline_contacts.push_back(SplineContactDefinition{"slide", {0}, {1}, {1e5, 1.0, 0.0}, false, 0});
+  m.spline_contacts.push_back(
+      SplineContactDefinition{"slide", {0}, {1}, {1e5, 1.0, 0.0}, false, 0});
   m.steps.push_back(test::static_step(1.0, 0.002, 1e-9));
   m.steps.back().tol_increment = 1e-7;
 
@@ -246,8 +249,8 @@ TEST(ContactVerification, DroppedBeamDoesNotPassThroughAndGainsNoEnergy) {
     void on_increment(const Simulation& s, const IncrementReport&) override {
       const double dz = s.state().x_n(2, b_mid) - s.state().x_n(2, a_mid);
       worst_gap = std::min(worst_gap, dz);
-      const double e = s.kinetic_energy() + s.strain_energy() + s.contact_energy() -
-                       s.external_work();
+      const double e =
+          s.kinetic_energy() + s.strain_energy() + s.contact_energy() - s.external_work();
       worst_energy = std::max(worst_energy, e);
       max_work = std::max(max_work, s.external_work());
       contact_increments += s.spline_contact()->active() > 0;
@@ -261,8 +264,8 @@ TEST(ContactVerification, DroppedBeamDoesNotPassThroughAndGainsNoEnergy) {
               "largest energy gain %.3e J of %.3e J work\n",
               rec.contact_increments, rec.worst_gap, 2 * r, rec.worst_energy, rec.max_work);
   EXPECT_GT(rec.contact_increments, 10);
-  EXPECT_GT(rec.worst_gap, r);                        // never through the other beam's centre line
-  EXPECT_LT(rec.worst_energy, 1e-3 * rec.max_work);   // no energy created
+  EXPECT_GT(rec.worst_gap, r);                      // never through the other beam's centre line
+  EXPECT_LT(rec.worst_energy, 1e-3 * rec.max_work); // no energy created
 }
 
 } // namespace

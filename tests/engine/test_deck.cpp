@@ -152,7 +152,8 @@ TEST_P(ExampleDeck, Parses) {
 
 INSTANTIATE_TEST_SUITE_P(Examples, ExampleDeck,
                          testing::Values("rollup.toml", "rollup-ten-turns.toml", "elastica.toml",
-                                         "cantilever-vibration.toml", "flying-beam.toml"));
+                                         "cantilever-vibration.toml", "flying-beam.toml",
+                                         "crossing-beams.toml"));
 
 TEST(Deck, RollupExampleHasTheVerificationCase) {
   const Model m = read_deck(kExamples / "rollup.toml");
@@ -486,6 +487,359 @@ TEST(Deck, ReadDeckReportsTheFileName) {
   }
   std::filesystem::remove(file);
   EXPECT_THROW(read_deck(file), InputError);
+}
+
+// kValid with a second beam crossing the first, three splines and two contacts.
+const std::string kSplines = std::string(kValid) + R"(
+[[lines]]
+name = "cross"
+from = [1, -1, 0.02]
+to = [1, 1, 0.02]
+elements = 2
+section = "rod"
+reference_vector = [1, 0, 0]
+
+[[node_sets]]
+name = "backwards"
+nodes = [5, 4, 3, 2, 1]
+
+[[splines]]
+name = "rod"
+node_set = "backwards"
+radius = 0.01
+
+[[splines]]
+name = "cross"
+node_set = "cross"
+radius = 0.01
+
+[[splines]]
+name = "listed"
+nodes = [10, 9, 8]
+radius = 0.02
+
+[[contacts]]
+name = "rod-cross"
+type = "spline"
+between = [["rod"], ["cross", "listed"]]
+law = "power"
+penalty = 2e6
+exponent = 1.5
+damping = 0.1
+margin = 0.001
+
+[[contacts]]
+name = "cross-self"
+type = "spline"
+group_a = "cross"
+penalty = 1e5
+self_contact = true
+)";
+
+TEST(DeckSplines, SplinesAndContactsResolveToIndices) {
+  const Model m = read_deck_string(kSplines, "deck.toml");
+  ASSERT_EQ(m.splines.size(), 3u);
+  // A node set's direction comes from the order the deck writes it: node 5 first.
+  EXPECT_EQ(m.splines[0].name, "rod");
+  EXPECT_EQ(m.splines[0].nodes, (std::vector<int>{4, 3, 2, 1, 0}));
+  EXPECT_DOUBLE_EQ(m.splines[0].radius, 0.01);
+  // A [[lines]] set runs from 'from' to 'to' (labels 6 to 10).
+  EXPECT_EQ(m.splines[1].nodes, (std::vector<int>{5, 6, 7, 8, 9}));
+  // An explicit list keeps its order.
+  EXPECT_EQ(m.splines[2].nodes, (std::vector<int>{9, 8, 7}));
+  EXPECT_DOUBLE_EQ(m.splines[2].radius, 0.02);
+
+  ASSERT_EQ(m.spline_contacts.size(), 2u);
+  const SplineContactDefinition& c = m.spline_contacts[0];
+  EXPECT_EQ(c.name, "rod-cross");
+  EXPECT_EQ(c.group_a, std::vector<int>{0});
+  EXPECT_EQ(c.group_b, (std::vector<int>{1, 2}));
+  EXPECT_DOUBLE_EQ(c.law.penalty, 2e6);
+  EXPECT_DOUBLE_EQ(c.law.exponent, 1.5);
+  EXPECT_DOUBLE_EQ(c.law.damping, 0.1);
+  EXPECT_DOUBLE_EQ(c.margin, 0.001);
+  EXPECT_FALSE(c.self_contact);
+
+  // One group, with self-contact: contact within it; the law defaults to the linear penalty.
+  const SplineContactDefinition& self = m.spline_contacts[1];
+  EXPECT_EQ(self.group_a, std::vector<int>{1});
+  EXPECT_TRUE(self.group_b.empty());
+  EXPECT_TRUE(self.self_contact);
+  EXPECT_DOUBLE_EQ(self.law.penalty, 1e5);
+  EXPECT_DOUBLE_EQ(self.law.exponent, 1.0);
+  EXPECT_DOUBLE_EQ(self.law.damping, 0.0);
+  EXPECT_DOUBLE_EQ(self.margin, 0.0);
+}
+
+TEST(DeckSplines, NodeSetIsOrderedAlongTheElementsNotByLabel) {
+  // The chain runs 5 - 3 - 1 - 4 - 2; the set is written sorted, so its first end is node 2.
+  std::string deck = replace(kValid, "[[1, 2, 3], [3, 4, 5]]", "[[5, 3, 1], [1, 4, 2]]");
+  deck = replace(deck, "[[0, 0, 0], [0.5, 0, 0], [1, 0, 0], [1.5, 0, 0], [2, 0, 0]]",
+                 "[[1, 0, 0], [2, 0, 0], [0.5, 0, 0], [1.5, 0, 0], [0, 0, 0]]");
+  deck += R"(
+[[node_sets]]
+name = "yarn"
+nodes = [1, 2, 3, 4, 5]
+
+[[splines]]
+name = "yarn"
+node_set = "yarn"
+radius = 0.01
+)";
+  const Model m = read_deck_string(deck, "deck.toml");
+  ASSERT_EQ(m.splines.size(), 1u);
+  EXPECT_EQ(m.splines[0].nodes, (std::vector<int>{1, 3, 0, 2, 4}));
+}
+
+TEST(DeckSplines, UnknownSplineNameIsReportedWithASuggestion) {
+  const std::string deck = replace(kSplines, "[\"cross\", \"listed\"]", "[\"cross\", \"lsited\"]");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"lsited\"") +
+                           "contacts[0].between[1][1]: no spline named 'lsited'; did you mean "
+                           "'listed'?");
+
+  const std::string group = replace(kSplines, "group_a = \"cross\"", "group_a = \"crosss\"");
+  const auto group_errors = errors_of(group);
+  ASSERT_EQ(group_errors.size(), 1u) << joined(group_errors);
+  EXPECT_EQ(group_errors[0], where(group, "\"crosss\"") +
+                                 "contacts[1].group_a: no spline named 'crosss'; did you mean "
+                                 "'cross'?");
+}
+
+TEST(DeckSplines, RadiusMustBePositive) {
+  const std::string deck = replace(kSplines, "radius = 0.02", "radius = 0.0");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "0.0\n\n[[contacts]]") +
+                           "splines[2].radius: expected a number > 0, found 0.0");
+}
+
+TEST(DeckSplines, ListedNodesMustFollowTheElements) {
+  // 8 and 10 are the ends of element 4 (the cross line's second): its middle node 9 is skipped.
+  const std::string deck = replace(kSplines, "nodes = [10, 9, 8]", "nodes = [6, 7, 8, 10]");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "10]") +
+                           "splines[2].nodes[3]: expected a node next to node 8 along an element, "
+                           "found node 10: nodes 8 and 10 are the end nodes of element 4, so its "
+                           "middle node 9 must come between them (every node is a control point)");
+
+  const std::string apart = replace(kSplines, "nodes = [10, 9, 8]", "nodes = [1, 2, 3, 8]");
+  const auto apart_errors = errors_of(apart);
+  ASSERT_EQ(apart_errors.size(), 1u) << joined(apart_errors);
+  EXPECT_EQ(apart_errors[0], where(apart, "8]") +
+                                 "splines[2].nodes[3]: expected a node next to node 3 along an "
+                                 "element, found node 8: node 8 shares no element with node 3 (the "
+                                 "nodes next to node 3 are 2, 4)");
+}
+
+TEST(DeckSplines, NodeSetMustBeOneChain) {
+  // Nodes 1, 3 are the ends of element 1 without its middle node 2.
+  std::string deck = replace(kSplines, "nodes = [5, 4, 3, 2, 1]", "nodes = [1, 3, 4, 5]");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"backwards\"", 1) +
+                           "splines[0].node_set: expected the nodes of one chain of elements, "
+                           "found that node set 'backwards' holds nodes 1 and 3, the end nodes of "
+                           "element 1, without its middle node 2 (every node is a control point)");
+
+  // Two pieces: 1 - 2 - 3 and 7 - 8 (the cross line).
+  deck = replace(kSplines, "nodes = [5, 4, 3, 2, 1]", "nodes = [1, 2, 3, 7, 8]");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"backwards\"", 1) +
+                           "splines[0].node_set: expected the nodes of one chain of elements, "
+                           "found that node set 'backwards' falls into separate pieces: the chain "
+                           "from node 1 to node 3 leaves out node 7");
+}
+
+TEST(DeckSplines, NodeSetMustBeAnOpenChainWithoutBranches) {
+  // A third element from node 3 makes a T.
+  std::string deck =
+      replace(kSplines, "[[1, 2, 3], [3, 4, 5]]", "[[1, 2, 3], [3, 4, 5], [3, 6, 7]]");
+  deck = replace(deck, "[2, 0, 0]]", "[2, 0, 0], [1, 0, 0.5], [1, 0, 1]]");
+  deck = replace(deck, "from = [1, -1, 0.02]", "from = [3, -1, 0.02]");
+  deck = replace(deck, "to = [1, 1, 0.02]", "to = [3, 1, 0.02]");
+  deck = replace(deck, "nodes = [5, 4, 3, 2, 1]", "nodes = [5, 4, 3, 2, 1, 6, 7]");
+  deck = replace(deck, "nodes = [10, 9, 8]", "nodes = [12, 11, 10]");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"backwards\"", 1) +
+                           "splines[0].node_set: expected the nodes of one chain of elements, "
+                           "found that node set 'backwards' branches at node 3, which is next to "
+                           "nodes 2, 4, 6 of the set");
+
+  // A third element from node 5 back to node 1 closes a ring.
+  deck = replace(kSplines, "[[1, 2, 3], [3, 4, 5]]", "[[1, 2, 3], [3, 4, 5], [5, 6, 1]]");
+  deck = replace(deck, "[2, 0, 0]]", "[2, 0, 0], [1, 0, 0.5]]");
+  deck = replace(deck, "nodes = [5, 4, 3, 2, 1]", "nodes = [1, 2, 3, 4, 5, 6]");
+  deck = replace(deck, "nodes = [10, 9, 8]", "nodes = [11, 10, 9]");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"backwards\"", 1) +
+                           "splines[0].node_set: expected the nodes of one chain of elements, "
+                           "found that node set 'backwards' forms a closed loop (a spline needs an "
+                           "open chain with two ends)");
+}
+
+TEST(DeckSplines, FewerThanThreeNodesAreReported) {
+  std::string deck = replace(kSplines, "nodes = [10, 9, 8]", "nodes = [10, 9]");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "[10, 9]") +
+                           "splines[2].nodes: expected at least 3 nodes (the control points of a "
+                           "quadratic B-spline), found 2");
+
+  deck = replace(kSplines, "node_set = \"backwards\"", "node_set = \"tip\"");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"tip\"\nradius") +
+                           "splines[0].node_set: expected a node set of at least 3 nodes (the "
+                           "control points of a quadratic B-spline), found 'tip' with 1");
+}
+
+TEST(DeckSplines, SplineNeedsItsNodesOnce) {
+  std::string deck = replace(kSplines, "nodes = [10, 9, 8]", "");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_NE(errors[0].find("splines[2]: missing required key 'node_set' or 'nodes'"),
+            std::string::npos)
+      << errors[0];
+
+  deck = replace(kSplines, "nodes = [10, 9, 8]", "nodes = [10, 9, 8]\nnode_set = \"cross\"");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "[10, 9, 8]") +
+                           "splines[2].nodes: give either 'node_set' or 'nodes', not both");
+}
+
+TEST(DeckSplines, UnknownLawIsReportedWithASuggestion) {
+  const std::string deck = replace(kSplines, "law = \"power\"", "law = \"powr\"");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"powr\"") +
+                           "contacts[0].law: expected \"linear\" or \"power\", found \"powr\"; did "
+                           "you mean \"power\"?");
+}
+
+TEST(DeckSplines, ExponentBelongsToThePowerLawOnly) {
+  std::string deck = replace(kSplines, "law = \"power\"", "law = \"linear\"");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "1.5\ndamping") +
+                           "contacts[0].exponent: 'exponent' applies only to law = \"power\"; "
+                           "this contact's law is \"linear\"");
+
+  deck = replace(kSplines, "exponent = 1.5\n", "");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "[[contacts]]") +
+                           "contacts[0]: missing required key 'exponent' (a number >= 1, for law "
+                           "= \"power\")");
+
+  deck = replace(kSplines, "exponent = 1.5", "exponent = 0.5");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0],
+            where(deck, "0.5\n") + "contacts[0].exponent: expected a number >= 1, found 0.5");
+}
+
+TEST(DeckSplines, SplineInBothGroupsIsReported) {
+  const std::string deck = replace(kSplines, "[[\"rod\"], [\"cross\", \"listed\"]]",
+                                   "[[\"rod\"], [\"cross\", \"rod\"]]");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"rod\"]]") +
+                           "contacts[0].between[1][1]: expected each spline in one group only, "
+                           "found 'rod' in both groups (also at contacts[0].between[0][0])");
+}
+
+TEST(DeckSplines, GroupsAreGivenOneWay) {
+  std::string deck =
+      replace(kSplines, "group_a = \"cross\"", "group_a = \"cross\"\nbetween = [\"cross\"]");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"cross\"\nbetween") +
+                           "contacts[1].group_a: give either 'between' or 'group_a' and "
+                           "'group_b', not both");
+
+  deck = replace(kSplines, "between = [[\"rod\"], [\"cross\", \"listed\"]]",
+                 "between = [[\"rod\"], [\"cross\"], [\"listed\"]]");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "[[\"rod\"]") +
+                           "contacts[0].between: expected one or two groups of spline names, "
+                           "[[\"a\", ...], [\"b\", ...]], found an array of 3 elements");
+
+  // A single group touches only itself: self-contact must be asked for.
+  deck = replace(kSplines, "self_contact = true\n", "");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"cross\"\npenalty") +
+                           "contacts[1].group_a: expected two groups of splines, found one (a "
+                           "single group is for contact within it: give self_contact = true)");
+
+  deck = replace(kSplines, "self_contact = true", "self_contact = false");
+  deck = replace(deck, "group_a = \"cross\"", "group_a = [\"cross\", \"rod\"]");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "false") +
+                           "contacts[1].self_contact: expected true with a single group of "
+                           "splines (contact within it), found false");
+}
+
+TEST(DeckSplines, ContactTypeIsChecked) {
+  std::string deck = replace(kSplines, "type = \"spline\"", "type = \"spilne\"");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "\"spilne\"") +
+                           "contacts[0].type: expected \"spline\" (beam-to-beam spline contact, "
+                           "the only type so far), found \"spilne\"; did you mean \"spline\"?");
+
+  deck = replace(kSplines, "type = \"spline\"", "type = \"surface\"");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_NE(errors[0].find("surface-to-surface contact is not available yet"), std::string::npos)
+      << errors[0];
+}
+
+TEST(DeckSplines, AllSplineAndContactErrorsAreReportedAtOnce) {
+  std::string deck = replace(kSplines, "radius = 0.02", "radius = -1.0");
+  deck = replace(deck, "nodes = [10, 9, 8]", "nodes = [10, 9]");
+  deck = replace(deck, "[\"cross\", \"listed\"]", "[\"cross\", \"lsited\"]");
+  deck = replace(deck, "law = \"power\"", "law = \"powr\"");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 4u) << joined(errors);
+  EXPECT_NE(errors[0].find("splines[2].nodes:"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[1].find("splines[2].radius:"), std::string::npos) << errors[1];
+  EXPECT_NE(errors[2].find("contacts[0].between[1][1]:"), std::string::npos) << errors[2];
+  EXPECT_NE(errors[3].find("contacts[0].law:"), std::string::npos) << errors[3];
+}
+
+TEST(DeckSplines, CrossingBeamsExampleHasTheVerificationCase) {
+  const Model m = read_deck(kExamples / "crossing-beams.toml");
+  ASSERT_EQ(m.splines.size(), 2u);
+  ASSERT_EQ(m.splines[0].nodes.size(), 21u);
+  ASSERT_EQ(m.splines[1].nodes.size(), 21u);
+  EXPECT_EQ(m.splines[1].nodes.front(), 21);
+  EXPECT_DOUBLE_EQ(m.splines[0].radius, 0.01);
+  // Initially touching: centre lines 2 r apart at the crossing.
+  const Eigen::Vector3d bottom_mid = m.nodes[static_cast<std::size_t>(m.splines[0].nodes[10])];
+  const Eigen::Vector3d top_mid = m.nodes[static_cast<std::size_t>(m.splines[1].nodes[10])];
+  EXPECT_NEAR((top_mid - bottom_mid).norm(), 2 * 0.01, 1e-15);
+  ASSERT_EQ(m.spline_contacts.size(), 1u);
+  EXPECT_EQ(m.spline_contacts[0].group_a, std::vector<int>{0});
+  EXPECT_EQ(m.spline_contacts[0].group_b, std::vector<int>{1});
+  EXPECT_DOUBLE_EQ(m.spline_contacts[0].law.penalty, 1e5);
+  EXPECT_DOUBLE_EQ(m.spline_contacts[0].law.exponent, 1.0);
+  // F_c = P / (2 + k / eps) with k = 48 EI / L^3 (verification.md).
+  const double EI = m.sections[0].EI1;
+  EXPECT_NEAR(EI, 7.85398, 1e-5);
+  EXPECT_NEAR(1.0 / (2 + 48 * EI / 1e5), 0.499059, 1e-6);
+  EXPECT_EQ(m.loads[0].force, Eigen::Vector3d(0, 0, -1));
+  EXPECT_EQ(m.node_sets[static_cast<std::size_t>(m.loads[0].node_set)].nodes,
+            std::vector<int>{m.splines[1].nodes[10]});
 }
 
 // The study's elliptical yarn section (formulation.md §1): a = 1.136364 mm, b = 0.2840909 mm,

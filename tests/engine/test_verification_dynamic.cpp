@@ -3,9 +3,9 @@
 #include "beam_models.hpp"
 #include "engine/solver/simulation.hpp"
 
-#include <gtest/gtest.h>
 #include <cmath>
 #include <cstdio>
+#include <gtest/gtest.h>
 #include <numbers>
 
 namespace yarnsim {
@@ -77,7 +77,7 @@ TEST(VerificationDynamic, CantileverFrequenciesFromAFreeVibration) {
   step.newmark_beta = 0.25;
   step.newmark_gamma = 0.5;
   step.dt_initial = step.dt_max = step.dt_min = (2 * std::numbers::pi / w2) / 40; // T2 / 40
-  step.end_time = 16 * 2 * std::numbers::pi / w1; // 16 T1
+  step.end_time = 16 * 2 * std::numbers::pi / w1;                                 // 16 T1
   step.tol_force = step.tol_increment = 1e-9;
   m.steps.push_back(step);
   Simulation sim(m);
@@ -108,12 +108,13 @@ struct EnergyRecorder : SimulationObserver {
 TEST(VerificationDynamic, FlyingBeamKeepsMomentaAndEnergyAfterTheLoad) {
   // Simo and Vu-Quoc's free-flying beam: L = 10 at atan(4/3) to x, EA = GA = 1e4, EI = GJ = 500,
   // rho A = 1, rho J = diag(10, 10, 20) (axis 3 along the beam); hat load on [0, 5] at one end.
-  Model m = test::straight_beam({0, 0, 0}, {6, 8, 0}, 10,
-                                test::stiffness_section(1e4, 1e4, 500, 500, 1.0,
-                                                        Eigen::Vector3d(10, 10, 20)),
-                                Eigen::Vector3d::UnitZ());
+  Model m = test::straight_beam(
+      {0, 0, 0}, {6, 8, 0}, 10,
+      test::stiffness_section(1e4, 1e4, 500, 500, 1.0, Eigen::Vector3d(10, 10, 20)),
+      Eigen::Vector3d::UnitZ());
   const TimeTable hat{{0.0, 2.5, 5.0}, {0.0, 1.0, 0.0}};
-  m.loads.push_back(NodalLoad{1, Eigen::Vector3d(20, 0, 0), Eigen::Vector3d(0, 200, 100), false, hat});
+  m.loads.push_back(
+      NodalLoad{1, Eigen::Vector3d(20, 0, 0), Eigen::Vector3d(0, 200, 100), false, hat});
   SolutionStep step;
   step.type = StepType::Dynamic;
   step.newmark_beta = 0.25;

@@ -3,9 +3,9 @@
 #include "beam_models.hpp"
 #include "engine/solver/simulation.hpp"
 
-#include <gtest/gtest.h>
 #include <cmath>
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 namespace yarnsim {
 namespace {
@@ -24,8 +24,8 @@ struct Recorder : SimulationObserver {
 Model rollup(double L, int n, double EA, double EI, double M, double dt) {
   Model m = straight_beam({0, 0, 0}, {L, 0, 0}, n, stiffness_section(EA, EA, EI, EI));
   m.constraints.push_back(clamp(1));
-  m.loads.push_back(NodalLoad{2, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, M), false,
-                              TimeTable::ramp(1.0)});
+  m.loads.push_back(
+      NodalLoad{2, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, M), false, TimeTable::ramp(1.0)});
   m.steps.push_back(static_step(1.0, dt));
   return m;
 }
@@ -98,8 +98,8 @@ TEST(VerificationStatic, ElasticaUnderADeadTipLoadOnAConvergedMesh) {
                       {10, 0.81061, 0.55500, 1.43029}};
   const double L = 1.0, EI = 1.0;
   for (const Row& row : rows) {
-    Model m = test::straight_beam({0, 0, 0}, {L, 0, 0}, 32,
-                                  test::stiffness_section(1e7, 1e7, EI, EI));
+    Model m =
+        test::straight_beam({0, 0, 0}, {L, 0, 0}, 32, test::stiffness_section(1e7, 1e7, EI, EI));
     m.constraints.push_back(test::clamp(1));
     m.loads.push_back(NodalLoad{2, Eigen::Vector3d(0, row.alpha * EI / (L * L), 0),
                                 Eigen::Vector3d::Zero(), false, TimeTable::ramp(1.0)});

@@ -1,0 +1,113 @@
+#include "engine/textile/biaxial.hpp"
+
+#include <cmath>
+#include <fmt/format.h>
+#include <stdexcept>
+
+namespace yarnsim::textile {
+
+std::pair<double, double> biaxial_strains(double k, double max_strain) {
+  if (!(k > 0) || !std::isfinite(k))
+    throw std::invalid_argument(fmt::format("biaxial: expected a strain ratio > 0, found {}", k));
+  if (!(max_strain > 0 && max_strain < 1))
+    throw std::invalid_argument(
+        fmt::format("biaxial: expected a maximum strain in (0, 1), found {}", max_strain));
+  return k >= 1 ? std::pair{max_strain, max_strain / k} : std::pair{k * max_strain, max_strain};
+}
+
+namespace {
+
+int require_set(const Model& model, const std::string& name) {
+  const int s = model.find_node_set(name);
+  if (s < 0)
+    throw std::invalid_argument(fmt::format("biaxial: the fabric has no node set '{}'", name));
+  return s;
+}
+
+/// A table that ramps linearly from 0 at t0 to `value` at t1; exactly 0 when value is 0.
+TimeTable ramp(double t0, double t1, double value) {
+  if (value == 0)
+    return TimeTable::constant(0.0);
+  return TimeTable{{t0, t1}, {0.0, value}};
+}
+
+} // namespace
+
+void add_biaxial_test(Fabric& fabric, const BiaxialParameters& p) {
+  const auto [eps_warp, eps_weft] = biaxial_strains(p.strain_ratio, p.max_strain);
+  const double T = p.loading_time;
+  if (!(T > 0) || !std::isfinite(T))
+    throw std::invalid_argument(fmt::format("biaxial: expected a loading time > 0, found {}", T));
+  if (p.type != StepType::Static && p.type != StepType::Dynamic)
+    throw std::invalid_argument("biaxial: expected a static or dynamic step");
+  Model& model = fabric.model;
+  const double t0 = model.steps.empty() ? 0.0 : model.steps.back().end_time;
+
+  SolutionStep step;
+  step.type = p.type;
+  step.end_time = t0 + T;
+  step.dt_initial = p.dt > 0 ? p.dt : T / 100;
+  step.dt_max = p.dt_max > 0 ? p.dt_max : std::max(T / 50, step.dt_initial);
+  step.dt_min = p.dt_min > 0 ? p.dt_min : std::min(T * 1e-6, step.dt_initial);
+  if (step.dt_initial > T || step.dt_min > step.dt_initial || step.dt_initial > step.dt_max)
+    throw std::invalid_argument(fmt::format("biaxial: expected dt_min <= dt <= dt_max and dt <= "
+                                            "the loading time {}, found {} <= {} <= {}",
+                                            T, step.dt_min, step.dt_initial, step.dt_max));
+  step.max_iterations = p.max_iterations;
+  step.tol_force = p.tol_force;
+  step.tol_increment = p.tol_increment;
+  step.newmark_beta = p.newmark_beta;
+  step.newmark_gamma = p.newmark_gamma;
+  step.output_every = p.output_every;
+
+  BiaxialTest test;
+  test.strain_ratio = p.strain_ratio;
+  test.max_strain = p.max_strain;
+  test.loading_time = T;
+  bool have_warp = false, have_weft = false;
+  for (const Yarn& y : fabric.yarns) {
+    const std::string name = yarn_name(y);
+    const int start_set = require_set(model, name + ".start");
+    const int end_set = require_set(model, name + ".end");
+    const Eigen::Vector3d a = model.nodes[static_cast<std::size_t>(y.nodes.front())];
+    const Eigen::Vector3d b = model.nodes[static_cast<std::size_t>(y.nodes.back())];
+    Eigen::Vector3d d(b.x() - a.x(), b.y() - a.y(), 0.0);
+    const double L = d.norm();
+    if (!(L > 0))
+      throw std::invalid_argument(
+          fmt::format("biaxial: yarn {} has its ends at the same in-plane point", name));
+    d /= L;
+    const double eps = y.warp ? eps_warp : eps_weft;
+    const double half = eps * L / 2;
+    for (auto [set, sign] : {std::pair{start_set, -1.0}, std::pair{end_set, 1.0}}) {
+      PrescribedMotion motion;
+      motion.node_set = set;
+      for (int c = 0; c < 3; ++c)
+        motion.displacement[static_cast<std::size_t>(c)] = ramp(t0, t0 + T, sign * half * d(c));
+      model.prescribed.push_back(std::move(motion));
+    }
+    if (y.warp) {
+      if (!have_warp)
+        test.length_warp = L;
+      have_warp = true;
+      test.warp_start.push_back(start_set);
+      test.warp_end.push_back(end_set);
+    } else {
+      if (!have_weft)
+        test.length_weft = L;
+      have_weft = true;
+      test.weft_start.push_back(start_set);
+      test.weft_end.push_back(end_set);
+    }
+  }
+  if (!have_warp || !have_weft)
+    throw std::invalid_argument("biaxial: expected warp and weft yarns, found only one direction");
+  model.steps.push_back(step);
+  model.biaxial = std::move(test);
+  if (p.monitors) {
+    model.monitors.push_back({"warp_ends", MonitorType::NodeSet, require_set(model, "warp.end")});
+    model.monitors.push_back({"weft_ends", MonitorType::NodeSet, require_set(model, "weft.end")});
+  }
+}
+
+} // namespace yarnsim::textile

@@ -1,0 +1,397 @@
+#include "engine/textile/fabric_deck.hpp"
+
+#include "engine/textile/biaxial.hpp"
+#include "engine/textile/weave.hpp"
+
+#include <fmt/format.h>
+#include <stdexcept>
+
+namespace yarnsim::textile {
+
+namespace {
+
+using namespace deck;
+
+// ---------------------------------------------------------------------------------------------
+// Schema of the fabric deck (docs/input.md, "Fabric decks").
+
+constexpr Range kPoisson{-1, 0.5, true, false};
+constexpr Range kUnitOpen{0, 1, true, true};
+constexpr Range kUnitHalfOpen{0, 1, true, false};
+constexpr Range kNewmarkBeta{0, 0.5, true, false};
+constexpr Range kNewmarkGamma{0.5, 1, false, false};
+constexpr Range kIterations{1, 1000, false, false};
+constexpr Range kElements{1, 1000, false, false};
+constexpr Range kYarnCount{1, 10000, false, false};
+
+constexpr KeySpec kFabricKeys[] = {
+    {"pattern", Type::Any},
+    {"n_warp", Type::Integer, kOptional, kYarnCount},
+    {"n_weft", Type::Integer, kOptional, kYarnCount},
+    {"spacing_warp", Type::Number, kRequired, kPositive},
+    {"spacing_weft", Type::Number, kRequired, kPositive},
+    {"length_warp", Type::Number, kRequired, kPositive},
+    {"length_weft", Type::Number, kRequired, kPositive},
+    {"gap", Type::Number, kRequired, kNonNegative},
+    {"a", Type::Number, kRequired, kPositive},
+    {"b", Type::Number, kRequired, kPositive},
+    {"contact_radius", Type::Number, kOptional, kPositive},
+    {"E", Type::Number, kOptional, kPositive},
+    {"EA", Type::Number, kOptional, kPositive},
+    {"nu", Type::Number, kOptional, kPoisson},
+    {"G", Type::Number, kOptional, kPositive},
+    {"density", Type::Number, kRequired, kPositive},
+    {"reduce_lower_inertia", Type::Number, kOptional, kUnitHalfOpen},
+    {"shear_factor", Type::Number, kOptional, kUnitHalfOpen},
+    {"elements_per_spacing", Type::Integer, kOptional, kElements},
+};
+constexpr TableSpec kFabric{"[fabric]", kFabricKeys};
+
+constexpr KeySpec kToleranceKeys[] = {
+    {"force", Type::Number, kOptional, kPositive},
+    {"increment", Type::Number, kOptional, kPositive},
+};
+constexpr TableSpec kTolerance{"tolerance", kToleranceKeys};
+constexpr KeySpec kNewmarkKeys[] = {
+    {"beta", Type::Number, kOptional, kNewmarkBeta},
+    {"gamma", Type::Number, kOptional, kNewmarkGamma},
+};
+constexpr TableSpec kNewmark{"newmark", kNewmarkKeys};
+constexpr KeySpec kBiaxialKeys[] = {
+    {"strain_ratio", Type::Number, kRequired, kPositive},
+    {"max_strain", Type::Number, kOptional, kUnitOpen},
+    {"loading_time", Type::Number, kOptional, kPositive},
+    {"type", Type::String},
+    {"dt", Type::Number, kOptional, kPositive},
+    {"dt_min", Type::Number, kOptional, kPositive},
+    {"dt_max", Type::Number, kOptional, kPositive},
+    {"max_iterations", Type::Integer, kOptional, kIterations},
+    {"tolerance", Type::Table, kOptional, kAnyValue, &kTolerance},
+    {"newmark", Type::Table, kOptional, kAnyValue, &kNewmark},
+    {"output_every", Type::Integer, kOptional, kAtLeastOne},
+    {"monitors", Type::Boolean},
+};
+constexpr TableSpec kBiaxial{"[biaxial]", kBiaxialKeys};
+
+constexpr KeySpec kContactKeys[] = {
+    {"law", Type::String},
+    {"penalty", Type::Number, kOptional, kPositive},
+    {"exponent", Type::Number, kOptional, kAtLeastOne},
+    {"damping", Type::Number, kOptional, kNonNegative},
+};
+constexpr TableSpec kContact{"[contact]", kContactKeys};
+
+constexpr KeySpec kFabricDeckKeys[] = {
+    {"title", Type::String},
+    {"fabric", Type::Table, kRequired, kAnyValue, &kFabric},
+    {"biaxial", Type::Table, kRequired, kAnyValue, &kBiaxial},
+    {"contact", Type::Table, kOptional, kAnyValue, &kContact},
+};
+constexpr TableSpec kFabricDeck{"the top level of a fabric deck", kFabricDeckKeys};
+
+// ---------------------------------------------------------------------------------------------
+
+std::string suggestion_text(std::string_view word, std::span<const std::string_view> choices) {
+  const std::string_view s = closest(word, choices);
+  return s.empty() ? std::string() : fmt::format("; did you mean \"{}\"?", s);
+}
+
+/// The pattern: "plain", "twill" (2/2), "basket" (2x2) or a matrix [[1, 0], [0, 1]] of 0 and 1.
+std::optional<Eigen::MatrixXi> pattern(const CheckedTable& t) {
+  const toml::node* n = t.node("pattern");
+  if (n == nullptr)
+    return plain_pattern();
+  static constexpr std::string_view kNames[] = {"plain", "twill", "basket"};
+  constexpr std::string_view kExpected =
+      "expected \"plain\", \"twill\", \"basket\" or a matrix of 0 and 1 ([[1, 0], [0, 1]])";
+  if (const auto* s = n->as_string()) {
+    const std::string_view name = s->get();
+    if (name == "plain")
+      return plain_pattern();
+    if (name == "twill")
+      return twill_pattern(2, 2);
+    if (name == "basket")
+      return basket_pattern(2);
+    t.error("pattern",
+            fmt::format("{}, found \"{}\"{}", kExpected, name, suggestion_text(name, kNames)));
+    return std::nullopt;
+  }
+  const toml::array* rows = n->as_array();
+  if (rows == nullptr || rows->empty()) {
+    t.error("pattern", fmt::format("{}, found {}", kExpected, describe_found(*n)));
+    return std::nullopt;
+  }
+  Eigen::MatrixXi out;
+  bool ok = true;
+  for (std::size_t i = 0; i < rows->size(); ++i) {
+    const toml::node& row = *rows->get(i);
+    const toml::array* r = row.as_array();
+    const std::size_t cols = out.cols() > 0 ? static_cast<std::size_t>(out.cols()) : 0;
+    if (r == nullptr || r->empty() || (i > 0 && r->size() != cols)) {
+      t.error("pattern", i,
+              i > 0 && r != nullptr
+                  ? fmt::format("expected a row of {} entries like the first, found {}", cols,
+                                describe_found(row))
+                  : fmt::format("expected a row of 0 and 1, found {}", describe_found(row)));
+      ok = false;
+      continue;
+    }
+    if (i == 0)
+      out.resize(static_cast<Eigen::Index>(rows->size()), static_cast<Eigen::Index>(r->size()));
+    for (std::size_t j = 0; j < r->size(); ++j) {
+      const toml::node& v = *r->get(j);
+      const auto* integer = v.as_integer();
+      if (integer == nullptr || (integer->get() != 0 && integer->get() != 1)) {
+        t.diagnostics().error(
+            v.source().begin.line != 0 ? v.source() : t.source("pattern"),
+            fmt::format("{}[{}][{}]", t.path("pattern"), i, j),
+            fmt::format("expected 0 (warp under) or 1 (warp over), found {}", describe_found(v)));
+        ok = false;
+        continue;
+      }
+      out(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) =
+          static_cast<int>(integer->get());
+    }
+  }
+  if (!ok)
+    return std::nullopt;
+  return out;
+}
+
+/// Exactly one of two keys; reports both or neither. Returns the one given, or empty.
+std::string_view one_of(const CheckedTable& t, std::string_view first, std::string_view second,
+                        std::string_view what) {
+  const bool a = t.present(first);
+  const bool b = t.present(second);
+  if (a && b) {
+    t.error(second, fmt::format("give either {} or {}, not both", first, second));
+    return {};
+  }
+  if (!a && !b) {
+    if (!t.misspelt(first) && !t.misspelt(second))
+      t.error(fmt::format("missing required key '{}' or '{}' ({})", first, second, what));
+    return {};
+  }
+  return a ? first : second;
+}
+
+class FabricDeckBuilder {
+public:
+  FabricDeckBuilder(const toml::table& table, Diagnostics& diagnostics)
+      : root_(table, kFabricDeck, "", diagnostics), diagnostics_(diagnostics) {}
+
+  Model build() {
+    const CheckedTable* fabric = root_.table("fabric");
+    const CheckedTable* biaxial = root_.table("biaxial");
+    const CheckedTable* contact = root_.table("contact");
+    std::optional<WeaveParameters> weave = fabric ? weave_parameters(*fabric) : std::nullopt;
+    const InterfaceLawParameters law =
+        contact ? contact_law(*contact) : WeaveParameters().contact_law;
+    if (weave)
+      weave->contact_law = law;
+    std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
+    if (!weave || !test || !diagnostics_.empty())
+      return {};
+    Fabric built;
+    try {
+      built = build_weave(*weave);
+    } catch (const std::invalid_argument& e) {
+      fabric->error(e.what());
+      return {};
+    }
+    try {
+      add_biaxial_test(built, *test);
+    } catch (const std::invalid_argument& e) {
+      biaxial->error(e.what());
+      return {};
+    }
+    if (auto title = root_.string("title"))
+      built.model.title = *title;
+    return std::move(built.model);
+  }
+
+private:
+  std::optional<WeaveParameters> weave_parameters(const CheckedTable& t) {
+    WeaveParameters p;
+    bool ok = true;
+    if (auto m = pattern(t))
+      p.pattern = *m;
+    else
+      ok = false;
+    p.n_warp = static_cast<int>(t.integer("n_warp").value_or(6));
+    p.n_weft = static_cast<int>(t.integer("n_weft").value_or(6));
+    auto number = [&](std::string_view key, double& out) {
+      // Absent optional keys keep their default; a bad or missing required value is reported.
+      if (auto v = t.number(key))
+        out = *v;
+      else if (t.present(key) || kFabric.find(key)->need == kRequired)
+        ok = false;
+    };
+    number("spacing_warp", p.spacing_warp);
+    number("spacing_weft", p.spacing_weft);
+    number("length_warp", p.length_warp);
+    number("length_weft", p.length_weft);
+    number("gap", p.gap);
+    number("a", p.a);
+    number("b", p.b);
+    number("contact_radius", p.contact_radius);
+    number("density", p.material.density);
+    number("reduce_lower_inertia", p.reduce_lower_inertia);
+    number("shear_factor", p.shear_factor);
+    p.elements_per_spacing = static_cast<int>(t.integer("elements_per_spacing").value_or(4));
+    for (std::string_view k : {"n_warp", "n_weft", "elements_per_spacing"})
+      ok = ok && (!t.present(k) || t.valid(k));
+
+    const std::string_view stiffness = one_of(t, "E", "EA", "a number > 0, Pa or N");
+    if (stiffness.empty())
+      ok = false;
+    else if (auto v = t.number(stiffness))
+      (stiffness == "E" ? p.material.young : p.material.EA) = *v;
+    else
+      ok = false;
+    const std::string_view shear = one_of(t, "nu", "G", "Poisson ratio or shear modulus");
+    if (shear.empty())
+      ok = false;
+    else if (auto v = t.number(shear))
+      (shear == "nu" ? p.material.poisson : p.material.shear) = *v;
+    else
+      ok = false;
+
+    // Cross-field rules, checked when their values are good.
+    if (t.valid("length_warp") && t.valid("spacing_weft") &&
+        (!t.present("n_weft") || t.valid("n_weft")) &&
+        p.length_warp < (p.n_weft - 1) * p.spacing_weft * (1 - 1e-9)) {
+      t.error("length_warp",
+              fmt::format("expected length_warp >= (n_weft - 1) spacing_weft = {} (a warp yarn "
+                          "must reach its outer crossings), found {}",
+                          (p.n_weft - 1) * p.spacing_weft, p.length_warp));
+      ok = false;
+    }
+    if (t.valid("length_weft") && t.valid("spacing_warp") &&
+        (!t.present("n_warp") || t.valid("n_warp")) &&
+        p.length_weft < (p.n_warp - 1) * p.spacing_warp * (1 - 1e-9)) {
+      t.error("length_weft",
+              fmt::format("expected length_weft >= (n_warp - 1) spacing_warp = {} (a weft yarn "
+                          "must reach its outer crossings), found {}",
+                          (p.n_warp - 1) * p.spacing_warp, p.length_weft));
+      ok = false;
+    }
+    if (t.valid("contact_radius") && t.valid("b") && t.valid("gap") &&
+        p.contact_radius > p.b + p.gap / 2) {
+      t.error("contact_radius",
+              fmt::format("expected contact_radius <= b + gap / 2 = {} (the centre lines are "
+                          "2 b + gap apart at a crossing; a larger radius starts in contact), "
+                          "found {}",
+                          p.b + p.gap / 2, p.contact_radius));
+      ok = false;
+    }
+    if (!ok)
+      return std::nullopt;
+    return p;
+  }
+
+  /// The [contact] law; its problems are reported (the returned law is then a placeholder).
+  InterfaceLawParameters contact_law(const CheckedTable& t) {
+    InterfaceLawParameters out = WeaveParameters().contact_law;
+    static constexpr std::string_view kLaws[] = {"linear", "power"};
+    const std::string law = t.string("law").value_or("linear");
+    if (t.present("law") && !t.valid("law"))
+      return out;
+    if (law != "linear" && law != "power") {
+      t.error("law", fmt::format("expected \"linear\" or \"power\", found \"{}\"{}", law,
+                                 suggestion_text(law, kLaws)));
+      return out;
+    }
+    if (law == "linear" && t.present("exponent"))
+      t.error("exponent", "'exponent' applies only to law = \"power\"");
+    if (law == "power" && !t.present("exponent"))
+      t.missing("exponent", "a number >= 1, for law = \"power\"");
+    out.penalty = t.number("penalty").value_or(out.penalty);
+    out.exponent = law == "power" ? t.number("exponent").value_or(1) : 1.0;
+    out.damping = t.number("damping").value_or(0);
+    return out;
+  }
+
+  std::optional<BiaxialParameters> biaxial_parameters(const CheckedTable& t) {
+    BiaxialParameters p;
+    bool ok = true;
+    for (const KeySpec& k : kBiaxialKeys)
+      ok = ok && (!t.present(k.name) || t.valid(k.name));
+    if (auto k = t.number("strain_ratio"))
+      p.strain_ratio = *k;
+    else
+      ok = false;
+    p.max_strain = t.number("max_strain").value_or(p.max_strain);
+    p.loading_time = t.number("loading_time").value_or(p.loading_time);
+    if (auto type = t.string("type")) {
+      static constexpr std::string_view kTypes[] = {"dynamic", "static"};
+      if (*type == "dynamic") {
+        p.type = StepType::Dynamic;
+      } else if (*type == "static") {
+        p.type = StepType::Static;
+      } else {
+        t.error("type", fmt::format("expected \"dynamic\" or \"static\", found \"{}\"{}", *type,
+                                    suggestion_text(*type, kTypes)));
+        ok = false;
+      }
+    }
+    if (p.type == StepType::Static && t.present("newmark")) {
+      t.error("newmark", "'newmark' applies only to type = \"dynamic\"; this test is \"static\"");
+      ok = false;
+    }
+    const double T = p.loading_time;
+    p.dt = t.number("dt").value_or(0);
+    p.dt_min = t.number("dt_min").value_or(0);
+    p.dt_max = t.number("dt_max").value_or(0);
+    const double dt = p.dt > 0 ? p.dt : T / 100;
+    const double dt_max = p.dt_max > 0 ? p.dt_max : std::max(T / 50, dt);
+    const double dt_min = p.dt_min > 0 ? p.dt_min : std::min(T * 1e-6, dt);
+    if (t.valid("dt") && dt > T * (1 + 1e-12)) {
+      t.error("dt", fmt::format("expected a time step <= loading_time ({}), found {}", T, dt));
+      ok = false;
+    } else if (t.valid("dt_min") && t.valid("dt_max") && dt_min > dt_max) {
+      t.error("dt_min", fmt::format("expected dt_min <= dt_max ({}), found {}", dt_max, dt_min));
+      ok = false;
+    } else if (dt > dt_max) {
+      t.error(t.present("dt") ? "dt" : "dt_max",
+              fmt::format("expected dt ({}) <= dt_max ({})", dt, dt_max));
+      ok = false;
+    } else if (dt < dt_min) {
+      t.error(t.present("dt") ? "dt" : "dt_min",
+              fmt::format("expected dt ({}) >= dt_min ({})", dt, dt_min));
+      ok = false;
+    }
+    p.max_iterations = static_cast<int>(t.integer("max_iterations").value_or(p.max_iterations));
+    if (const CheckedTable* tol = t.table("tolerance")) {
+      p.tol_force = tol->number("force").value_or(p.tol_force);
+      p.tol_increment = tol->number("increment").value_or(p.tol_increment);
+      ok = ok && (!tol->present("force") || tol->valid("force")) &&
+           (!tol->present("increment") || tol->valid("increment"));
+    }
+    if (const CheckedTable* nm = t.table("newmark")) {
+      p.newmark_beta = nm->number("beta").value_or(p.newmark_beta);
+      p.newmark_gamma = nm->number("gamma").value_or(p.newmark_gamma);
+      ok = ok && (!nm->present("beta") || nm->valid("beta")) &&
+           (!nm->present("gamma") || nm->valid("gamma"));
+    }
+    p.output_every =
+        static_cast<int>(std::min<long long>(t.integer("output_every").value_or(1), 1'000'000'000));
+    p.monitors = t.boolean("monitors").value_or(true);
+    if (!ok)
+      return std::nullopt;
+    return p;
+  }
+
+  CheckedTable root_;
+  Diagnostics& diagnostics_;
+};
+
+} // namespace
+
+std::optional<Model> read_fabric_deck(const toml::table& table, Diagnostics& diagnostics) {
+  if (!table.contains("fabric"))
+    return std::nullopt;
+  return FabricDeckBuilder(table, diagnostics).build();
+}
+
+} // namespace yarnsim::textile

@@ -1,0 +1,212 @@
+// Fabric decks (engine/textile/fabric_deck.hpp through read_deck) and the study's examples.
+
+#include "engine/model/deck.hpp"
+#include "engine/textile/biaxial.hpp"
+#include "engine/textile/weave.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <gtest/gtest.h>
+#include <string>
+
+namespace yarnsim {
+namespace {
+
+const std::filesystem::path kExamples = std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples";
+
+std::vector<std::string> errors_of(std::string_view deck) {
+  try {
+    read_deck_string(deck, "fabric.toml");
+  } catch (const InputError& e) {
+    return e.messages();
+  }
+  ADD_FAILURE() << "deck read without errors:\n" << deck;
+  return {};
+}
+
+std::string joined(const std::vector<std::string>& messages) {
+  std::string out;
+  for (const auto& m : messages)
+    out += m + "\n";
+  return out;
+}
+
+constexpr std::string_view kValid = R"(title = "small fabric"
+[fabric]
+pattern = [[1, 0], [0, 1]]
+n_warp = 3
+n_weft = 4
+spacing_warp = 4e-3
+spacing_weft = 5e-3
+length_warp = 25e-3
+length_weft = 20e-3
+gap = 0.1e-3
+a = 1e-3
+b = 0.3e-3
+E = 3.7e10
+nu = 0.2
+density = 2540.0
+
+[biaxial]
+strain_ratio = 2.0
+type = "static"
+)";
+
+std::string with(std::string_view from, std::string_view to) {
+  std::string deck(kValid);
+  const std::size_t at = deck.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  deck.replace(at, from.size(), to);
+  return deck;
+}
+
+TEST(FabricDeck, SmallDeckBuildsTheWeaveAndTheTest) {
+  const Model m = read_deck_string(kValid, "fabric.toml");
+  EXPECT_EQ(m.title, "small fabric");
+  EXPECT_EQ(m.splines.size(), 7u);
+  ASSERT_EQ(m.spline_contacts.size(), 1u);
+  EXPECT_DOUBLE_EQ(m.spline_contacts[0].law.penalty, 1.5e6); // default: the paper's
+  ASSERT_TRUE(m.biaxial.has_value());
+  EXPECT_EQ(m.biaxial->strain_ratio, 2.0);
+  EXPECT_EQ(m.biaxial->warp_start.size(), 3u);
+  EXPECT_EQ(m.biaxial->weft_start.size(), 4u);
+  ASSERT_EQ(m.steps.size(), 1u);
+  EXPECT_EQ(m.steps[0].type, StepType::Static);
+  // 25 mm warp = 3 spacings between 4 crossings + 2 x 5 mm of straight end (4 elements each).
+  const int warp0 = m.find_node_set("warp0");
+  ASSERT_GE(warp0, 0);
+  EXPECT_EQ(m.node_sets[static_cast<std::size_t>(warp0)].nodes.size(), 2u * (3 * 4 + 2 * 4) + 1);
+}
+
+TEST(FabricDeck, MinimalDeckTakesTheDefaults) {
+  // The deck of docs/input.md, "Fabric decks".
+  const Model m = read_deck_string(R"(title = "Biaxial tension of a plain weave, k = 2"
+
+[fabric]
+pattern = "plain"
+spacing_warp = 4.54545e-3
+spacing_weft = 4.54545e-3
+length_warp = 40.90909e-3
+length_weft = 40.90909e-3
+gap = 0.11364e-3
+a = 1.136364e-3
+b = 0.2840909e-3
+EA = 38000.0
+nu = 0.2
+density = 2540.0
+
+[contact]
+penalty = 1.5e6
+
+[biaxial]
+strain_ratio = 2.0
+)",
+                                   "fabric.toml");
+  textile::Fabric expected = textile::build_weave(textile::paper_fabric());
+  textile::BiaxialParameters b;
+  b.strain_ratio = 2;
+  textile::add_biaxial_test(expected, b);
+  ASSERT_EQ(m.nodes.size(), expected.model.nodes.size());
+  for (std::size_t i = 0; i < m.nodes.size(); ++i)
+    EXPECT_EQ(m.nodes[i], expected.model.nodes[i]);
+  EXPECT_EQ(m.steps[0].type, StepType::Dynamic);
+  EXPECT_EQ(m.steps[0].dt_initial, 0.01);
+  EXPECT_EQ(m.monitors.size(), 2u);
+}
+
+TEST(FabricDeck, ExamplesAreThePapersStudy) {
+  for (auto [file, k] : {std::pair{"biaxial-k1.toml", 1.0}, std::pair{"biaxial-k2.toml", 2.0},
+                         std::pair{"biaxial-k0.5.toml", 0.5}}) {
+    const Model m = read_deck(kExamples / file);
+    textile::Fabric expected = textile::build_weave(textile::paper_fabric());
+    textile::BiaxialParameters b;
+    b.strain_ratio = k;
+    textile::add_biaxial_test(expected, b);
+    const Model& e = expected.model;
+    ASSERT_EQ(m.nodes.size(), e.nodes.size()) << file;
+    for (std::size_t i = 0; i < m.nodes.size(); ++i)
+      EXPECT_LT((m.nodes[i] - e.nodes[i]).norm(), 1e-15) << file << " node " << i;
+    EXPECT_EQ(m.elements.size(), e.elements.size());
+    EXPECT_NEAR(m.sections[0].EA, 38000, 1e-9);
+    EXPECT_DOUBLE_EQ(m.sections[0].EI1, e.sections[0].EI1);
+    EXPECT_DOUBLE_EQ(m.spline_contacts[0].law.penalty, 1.5e6);
+    EXPECT_EQ(m.biaxial->strain_ratio, k);
+    EXPECT_EQ(m.steps[0].type, StepType::Dynamic);
+    EXPECT_EQ(m.steps[0].newmark_beta, 0.3);
+    EXPECT_EQ(m.steps[0].dt_initial, e.steps[0].dt_initial);
+    EXPECT_EQ(m.steps[0].dt_max, e.steps[0].dt_max);
+    EXPECT_EQ(m.steps[0].dt_min, e.steps[0].dt_min);
+    ASSERT_EQ(m.prescribed.size(), e.prescribed.size());
+    for (std::size_t i = 0; i < m.prescribed.size(); ++i)
+      for (std::size_t c = 0; c < 3; ++c)
+        EXPECT_EQ(m.prescribed[i].displacement[c]->at(1.0),
+                  e.prescribed[i].displacement[c]->at(1.0));
+  }
+}
+
+TEST(FabricDeck, UnknownKeyIsReportedWithItsLineAndASuggestion) {
+  const auto e = errors_of(with("gap = 0.1e-3", "gapp = 0.1e-3"));
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_EQ(e[0], "fabric.toml:10:1: fabric.gapp: unknown key 'gapp' in [fabric]; did you mean "
+                  "'gap'?");
+}
+
+TEST(FabricDeck, WrongTypesAndValuesAreReportedAllAtOnce) {
+  std::string deck = with("n_warp = 3", "n_warp = 3.0");
+  deck.replace(deck.find("strain_ratio = 2.0"), 18, "strain_ratio = \"two\"");
+  deck.replace(deck.find("[[1, 0], [0, 1]]"), 16, "[[1, 0], [0, 2]]");
+  deck.replace(deck.find("type = \"static\""), 15, "type = \"statik\"");
+  const auto e = errors_of(deck);
+  ASSERT_EQ(e.size(), 4u) << joined(e);
+  EXPECT_EQ(e[0], "fabric.toml:3:24: fabric.pattern[1][1]: expected 0 (warp under) or 1 (warp "
+                  "over), found an integer (2)");
+  EXPECT_EQ(e[1], "fabric.toml:4:10: fabric.n_warp: expected an integer in [1, 10000], "
+                  "found a floating-point number (3.0)");
+  EXPECT_EQ(e[2], "fabric.toml:18:16: biaxial.strain_ratio: expected a number > 0, found a "
+                  "string \"two\"");
+  EXPECT_EQ(e[3], "fabric.toml:19:8: biaxial.type: expected \"dynamic\" or \"static\", found "
+                  "\"statik\"; did you mean \"static\"?");
+}
+
+TEST(FabricDeck, MissingAndInconsistentValuesAreReported) {
+  auto e = errors_of(with("E = 3.7e10\n", ""));
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_EQ(e[0], "fabric.toml:2:1: fabric: missing required key 'E' or 'EA' (a number > 0, Pa "
+                  "or N)");
+  e = errors_of(with("length_warp = 25e-3", "length_warp = 10e-3"));
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_NE(e[0].find("fabric.toml:8:15: fabric.length_warp: expected length_warp >= (n_weft - "
+                      "1) spacing_weft = 0.015"),
+            std::string::npos)
+      << e[0];
+  e = errors_of(with("b = 0.3e-3", "b = 0.3e-3\ncontact_radius = 0.4e-3"));
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_NE(e[0].find("fabric.contact_radius: expected contact_radius <= b + gap / 2"),
+            std::string::npos)
+      << e[0];
+  e = errors_of(with("[biaxial]\n", "[biaxial]\ndt = 2.0\n"));
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_NE(e[0].find("biaxial.dt: expected a time step <= loading_time (1)"), std::string::npos)
+      << e[0];
+  // An ordinary-deck block in a fabric deck.
+  e = errors_of(std::string(kValid) + "[[steps]]\ntype = \"static\"\nend_time = 1.0\ndt = 0.1\n");
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_NE(e[0].find("fabric.toml:20:3: steps: unknown key 'steps' in the top level of a fabric "
+                      "deck"),
+            std::string::npos)
+      << e[0];
+  e = errors_of(std::string(kValid) + "[contact]\nlaw = \"power\"\npenalty = 1e6\n");
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_NE(e[0].find("missing required key 'exponent'"), std::string::npos) << e[0];
+  // [contact] is checked even when [fabric] has errors of its own.
+  e = errors_of(with("a = 1e-3", "a = -1e-3") + "[contact]\nlaw = \"lineer\"\n");
+  ASSERT_EQ(e.size(), 2u) << joined(e);
+  EXPECT_NE(e[0].find("fabric.a: expected a number > 0, found -0.001"), std::string::npos) << e[0];
+  EXPECT_NE(e[1].find("contact.law: expected \"linear\" or \"power\", found \"lineer\"; did you "
+                      "mean \"linear\"?"),
+            std::string::npos)
+      << e[1];
+}
+
+} // namespace
+} // namespace yarnsim
