@@ -414,7 +414,10 @@ TEST(SplineContact, ProjectionAgreesWithBruteForceSampling) {
       ASSERT_EQ(pr.status, ProjectionStatus::OutOfRange);
       ++out_of_range;
       // The minimum over the ranges then lies on a range end.
-      EXPECT_NEAR(arg.cwiseAbs().maxCoeff(), 0.5, 1e-12);
+      EXPECT_NEAR(arg.cwiseAbs().maxCoeff(), 0.5, 1e-12)
+          << "trial " << trial << " arg " << arg.transpose() << " best " << best << " kernel u "
+          << p.ba->local(pr.xi_A) << " " << p.bb->local(pr.xi_B) << " it " << pr.iterations
+          << "\nxa\n" << p.xa << "\nxb\n" << p.xb << "\nsegs " << p.ba->begin() << " " << p.bb->begin();
     }
   }
   EXPECT_GT(converged, 10);

@@ -1,0 +1,148 @@
+// The paper's study on the spline model: the balanced fabric gives coinciding warp and weft
+// curves at k = 1, and the warp curve at k = 2 matches the weft curve at k = 0.5 (the fabric is
+// the same under x <-> y with z -> -z). Also: the same numbers on 1 and 2 threads.
+#include "engine/model/deck.hpp"
+#include "engine/run/run.hpp"
+#include "engine/solver/simulation.hpp"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <sstream>
+#include <tbb/global_control.h>
+
+namespace yarnsim {
+namespace {
+
+const std::filesystem::path kExamples = std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples";
+
+struct Curves {
+  std::vector<double> strain_warp, strain_weft, force_warp, force_weft;
+};
+
+struct CurveRecorder : SimulationObserver {
+  Curves c;
+  const Model& m;
+  explicit CurveRecorder(const Model& model) : m(model) {}
+  void on_increment(const Simulation& sim, const IncrementReport&) override {
+    const BiaxialTest& b = *m.biaxial;
+    double s[2] = {0, 0}, f[2] = {0, 0};
+    for (int dir = 0; dir < 2; ++dir) {
+      const auto& starts = dir == 0 ? b.warp_start : b.weft_start;
+      const auto& ends = dir == 0 ? b.warp_end : b.weft_end;
+      for (std::size_t i = 0; i < starts.size(); ++i) {
+        const int a = m.node_sets[starts[i]].nodes.front(), e = m.node_sets[ends[i]].nodes.front();
+        const Eigen::Vector2d d0 = (m.nodes[e] - m.nodes[a]).head<2>();
+        const Eigen::Vector2d d = (sim.state().x_n.col(e) - sim.state().x_n.col(a)).head<2>();
+        s[dir] +=
+            (d.norm() - d0.norm()) / (dir == 0 ? b.length_warp : b.length_weft) / starts.size();
+        const Eigen::Vector3d axis(d0.x() / d0.norm(), d0.y() / d0.norm(), 0);
+        f[dir] += 0.5 * (sim.reactions().col(e).head<3>().dot(axis) -
+                         sim.reactions().col(a).head<3>().dot(axis));
+      }
+    }
+    c.strain_warp.push_back(s[0]);
+    c.strain_weft.push_back(s[1]);
+    c.force_warp.push_back(f[0]);
+    c.force_weft.push_back(f[1]);
+  }
+};
+
+Curves run_case(const std::string& deck) {
+  const Model m = read_deck(kExamples / deck);
+  Simulation sim(m);
+  CurveRecorder rec(m);
+  sim.run(&rec);
+  return rec.c;
+}
+
+/// Linear interpolation of y(x) at x0 on increasing x.
+double at(const std::vector<double>& x, const std::vector<double>& y, double x0) {
+  for (std::size_t i = 1; i < x.size(); ++i)
+    if (x[i] >= x0) {
+      const double w = (x0 - x[i - 1]) / (x[i] - x[i - 1]);
+      return (1 - w) * y[i - 1] + w * y[i];
+    }
+  return y.back();
+}
+
+/// The final tangent slope dF/d(eps) over the last 20 % of the curve.
+double final_slope(const std::vector<double>& s, const std::vector<double>& f) {
+  const double s1 = s.back(), s0 = 0.8 * s1;
+  return (f.back() - at(s, f, s0)) / (s1 - s0);
+}
+
+TEST(Biaxial, BalancedFabricCurvesCoincide) {
+  const Curves k1 = run_case("biaxial-k1.toml");
+  const Curves k2 = run_case("biaxial-k2.toml");
+  const Curves k05 = run_case("biaxial-k0.5.toml");
+  ASSERT_NEAR(k1.strain_warp.back(), 0.015, 1e-9);
+  ASSERT_NEAR(k2.strain_warp.back(), 0.015, 1e-9);
+  ASSERT_NEAR(k05.strain_weft.back(), 0.015, 1e-9);
+  // Past the toe (0.3 % strain) the curves agree within 1 % at equal strain.
+  double worst_k1 = 0, worst_k2 = 0;
+  for (double s = 0.003; s <= 0.015 + 1e-12; s += 0.0005) {
+    const double fw = at(k1.strain_warp, k1.force_warp, s),
+                 ff = at(k1.strain_weft, k1.force_weft, s);
+    worst_k1 = std::max(worst_k1, std::abs(fw - ff) / std::abs(fw));
+    const double a = at(k2.strain_warp, k2.force_warp, s);
+    const double b = at(k05.strain_weft, k05.force_weft, s);
+    worst_k2 = std::max(worst_k2, std::abs(a - b) / std::abs(a));
+  }
+  const double EA = 38000, n = 6;
+  std::printf("k = 1: warp %.1f N, weft %.1f N at 1.5 %%; largest warp/weft difference %.2e\n",
+              k1.force_warp.back(), k1.force_weft.back(), worst_k1);
+  std::printf("k = 2 warp vs k = 0.5 weft: %.1f N vs %.1f N at 1.5 %%; largest difference %.2e\n",
+              k2.force_warp.back(), k05.force_weft.back(), worst_k2);
+  std::printf("final slopes / (n EA): k = 1 warp %.3f weft %.3f; k = 2 warp %.3f weft %.3f; "
+              "k = 0.5 warp %.3f weft %.3f\n",
+              final_slope(k1.strain_warp, k1.force_warp) / (n * EA),
+              final_slope(k1.strain_weft, k1.force_weft) / (n * EA),
+              final_slope(k2.strain_warp, k2.force_warp) / (n * EA),
+              final_slope(k2.strain_weft, k2.force_weft) / (n * EA),
+              final_slope(k05.strain_warp, k05.force_warp) / (n * EA),
+              final_slope(k05.strain_weft, k05.force_weft) / (n * EA));
+  EXPECT_LT(worst_k1, 0.01);
+  EXPECT_LT(worst_k2, 0.01);
+  // The stiff part cannot be stiffer than the straight yarns themselves.
+  EXPECT_LT(final_slope(k1.strain_warp, k1.force_warp), n * EA);
+  EXPECT_GT(final_slope(k1.strain_warp, k1.force_warp), 0.5 * n * EA);
+}
+
+TEST(Biaxial, OneAndTwoThreadsGiveBitwiseIdenticalResults) {
+  // The first 0.2 s of the k = 1 case: contact is active by then.
+  Model m = read_deck(kExamples / "biaxial-k1.toml");
+  m.steps.back().end_time = 0.2;
+  struct Snapshot : SimulationObserver {
+    std::vector<Eigen::Matrix3Xd> x;
+    std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> r;
+    std::vector<double> f;
+    void on_increment(const Simulation& s, const IncrementReport&) override {
+      x.push_back(s.state().x_n);
+      r.push_back(s.reactions());
+      f.push_back(s.spline_contact()->total_force());
+    }
+  };
+  Snapshot one, two;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    Simulation sim(m);
+    sim.run(&one);
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    Simulation sim(m);
+    sim.run(&two);
+  }
+  ASSERT_EQ(one.x.size(), two.x.size());
+  ASSERT_GT(one.f.back(), 0.0) << "no contact: the test would not exercise the contact stage";
+  for (std::size_t k = 0; k < one.x.size(); ++k) {
+    EXPECT_TRUE((one.x[k].array() == two.x[k].array()).all()) << "positions, increment " << k;
+    EXPECT_TRUE((one.r[k].array() == two.r[k].array()).all()) << "reactions, increment " << k;
+    EXPECT_EQ(one.f[k], two.f[k]) << "contact force, increment " << k;
+  }
+}
+
+} // namespace
+} // namespace yarnsim
