@@ -4,8 +4,8 @@
 #include "engine/math/rotation.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <fmt/format.h>
 #include <numbers>
 
@@ -173,6 +173,12 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   int worst_dof = -1;
   for (int iter = 0; iter <= step.max_iterations; ++iter) {
     // Contact first: new candidate pairs may grow the pattern before anything is assembled.
+    auto tick = std::chrono::steady_clock::now();
+    auto lap = [&tick](double& total) {
+      const auto now = std::chrono::steady_clock::now();
+      total += std::chrono::duration<double>(now - tick).count();
+      tick = now;
+    };
     if (contact_) {
       const std::string veto = contact_->evaluate(state_.x, true);
       if (!veto.empty())
@@ -182,6 +188,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         coupled_candidates_ = contact_->candidates_version();
       }
     }
+    lap(stage_times_.contact_search);
     residual.setZero();
     assembler_->zero_matrix();
     StiffnessDamping damping;
@@ -205,6 +212,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       ref_force = std::max(ref_force, residual.segment<3>(6 * i).norm());
       ref_moment = std::max(ref_moment, residual.segment<3>(6 * i + 3).norm());
     }
+    lap(stage_times_.beam_assembly);
     if (contact_) {
       contact_->assemble(residual, *assembler_, true);
       ref_force = std::max(ref_force, contact_->max_force());
@@ -255,6 +263,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       }
     }
 
+    lap(stage_times_.other_assembly);
     // Forces and moments are compared on one scale: a moment M over the shortest element of
     // length h is worth a force M / h.
     ref_force = std::max(ref_force, ref_moment / min_length_);
@@ -289,9 +298,6 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     const double rel = std::max(r_force / std::max(ref_force, floor_force_),
                                 r_moment / std::max(ref_moment, floor_moment_));
     report.residual_history.push_back(rel);
-    if (std::getenv("YARNSIM_DEBUG"))
-      fmt::print("  iter {} rF {:.3e} rM {:.3e} refF {:.3e} refM {:.3e} du {:.3e} da {:.3e}\n",
-                 iter, r_force, r_moment, ref_force, ref_moment, last_du, last_da);
 
     const bool residual_ok = r_force <= std::max(step.tol_force * ref_force, floor_force_) &&
                              r_moment <= std::max(step.tol_force * ref_moment, floor_moment_);
@@ -339,14 +345,14 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         solver_->analyze(assembler_->matrix());
         analysed_pattern_ = assembler_->pattern_version();
       }
+      lap(stage_times_.convergence_check);
       solver_->factorize(assembler_->matrix());
     } catch (const LinearSolverError& e) {
       return e.what();
     }
+    lap(stage_times_.factorisation);
     const Eigen::VectorXd delta = solver_->solve(rhs);
-    if (std::getenv("YARNSIM_DEBUG"))
-      fmt::print("   linear solve residual {:.3e} of {:.3e}\n",
-                 (assembler_->matrix() * delta - rhs).norm(), rhs.norm());
+    lap(stage_times_.solve);
     if (!delta.allFinite())
       return "the linear solve returned non-finite values";
     report.energy_history.push_back(std::abs(delta.dot(rhs)));
@@ -433,8 +439,11 @@ void Simulation::run(SimulationObserver* observer) {
   double t = state_.time;
   for (std::size_t s = 0; s < model_.steps.size(); ++s) {
     const SolutionStep& step = model_.steps[s];
-    if (step.type == StepType::Explicit)
-      throw std::invalid_argument("explicit steps are not supported by the implicit solver yet");
+    if (step.type == StepType::Explicit) {
+      run_explicit(static_cast<int>(s), observer);
+      t = step.end_time;
+      continue;
+    }
     double dt = std::min(step.dt_initial, step.dt_max);
     int failed = 0;
     while (t < step.end_time * (1 - 1e-12)) {

@@ -52,6 +52,42 @@ public:
                                  const std::string& /*why*/) {}
 };
 
+/// Wall time spent in each stage of the Newton iterations since the start of the run, s.
+struct StageTimes {
+  double contact_search = 0;    ///< broad and narrow phase of the contact
+  double beam_assembly = 0;     ///< beam residual and tangent into the matrix
+  double other_assembly = 0;    ///< contact, inertia and load terms
+  double convergence_check = 0; ///< norms, and the symbolic analysis when the pattern changed
+  double factorisation = 0;
+  double solve = 0;
+};
+
+/// Energies of the last completed increment, J. The work of prescribed motions (reactions) and
+/// the energy dissipated by damping are counted in explicit steps only.
+struct EnergyBalance {
+  double kinetic = 0;
+  double internal = 0; ///< strain energy of the beams
+  double contact = 0;
+  double external_work = 0;   ///< work of the nodal loads since the start of the run
+  double prescribed_work = 0; ///< work of the reactions at prescribed DOFs
+  double damping = 0;         ///< dissipated by Rayleigh damping
+  /// kinetic + internal + contact + damping - works, less its value at the start of the last
+  /// explicit step: zero for an exact integrator.
+  double error = 0;
+};
+
+/// Stability estimate of the explicit path (central_difference.cpp).
+struct ExplicitStatus {
+  double critical_dt = 0; ///< s, 2 / omega_max (less with stiffness damping)
+  double stable_dt = 0;   ///< s, safety_factor * critical_dt
+  std::string limited_by; ///< "element 12", "contact 'name'"
+  double dt = 0;          ///< s, the step in use
+  double added_mass = 0;  ///< kg, by mass scaling
+  double added_mass_percent = 0;   ///< of the model's translational mass
+  double added_rotary_percent = 0; ///< of the model's rotary inertia (trace)
+  long increments = 0;             ///< explicit increments completed
+};
+
 struct SimulationOptions {
   LinearSolverKind linear_solver = LinearSolverKind::LU;
   /// Set from a signal handler; checked between increments.
@@ -73,6 +109,7 @@ public:
   const SplineContactSet* spline_contact() const { return contact_.get(); }
   int total_iterations() const { return total_iterations_; }
   const std::string& linear_solver_name() const { return solver_name_; }
+  const StageTimes& stage_times() const { return stage_times_; }
 
   /// Reactions at constrained DOFs of the last converged increment, 6 x n_nodes (N, N m).
   const Eigen::Matrix<double, 6, Eigen::Dynamic>& reactions() const { return reactions_; }
@@ -91,6 +128,13 @@ public:
   Eigen::Vector3d angular_momentum() const;
   /// Lumped nodal mass (kg) and material rotary inertia (kg m^2).
   const Eigen::VectorXd& nodal_mass() const { return mass_; }
+  /// All energies of the last converged increment.
+  EnergyBalance energy_balance() const;
+  /// Stable step of explicit step `step` at the current state, with the mass scaling it asks
+  /// for (not applied to the simulation).
+  ExplicitStatus explicit_stability(const SolutionStep& step) const;
+  /// The last stability estimate and mass scaling of the explicit path.
+  const ExplicitStatus& explicit_status() const { return explicit_status_; }
 
 private:
   struct PrescribedDisplacement {
@@ -106,6 +150,9 @@ private:
   /// success, otherwise why it failed (the state is then restored).
   std::string attempt(const SolutionStep& step, double t_new, double dt, IncrementReport& report);
   void commit(const SolutionStep& step, double dt, double t_new);
+  /// Runs explicit step `step_index` to its end time (central_difference.cpp).
+  void run_explicit(int step_index, SimulationObserver* observer);
+  friend class CentralDifference;
   void apply_prescribed(double t_new);
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
@@ -126,8 +173,12 @@ private:
   double floor_force_ = 0, floor_moment_ = 0, floor_length_ = 0;
   double min_length_ = 1; ///< shortest element, m
   double external_work_ = 0;
+  double prescribed_work_ = 0, damping_work_ = 0; ///< J, explicit steps
+  double energy_reference_ = 0; ///< J, balance at the start of the last explicit step
+  ExplicitStatus explicit_status_;
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
   int total_iterations_ = 0;
+  StageTimes stage_times_;
   int analysed_pattern_ = -1;   ///< pattern version the solver analysed
   int coupled_candidates_ = -1; ///< contact candidate version the pattern holds
 };

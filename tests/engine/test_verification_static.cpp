@@ -4,6 +4,7 @@
 #include "engine/solver/simulation.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
@@ -40,6 +41,9 @@ TEST(VerificationStatic, RollUpMatchesTheExactArcAtEveryLambda) {
     const double phi = 2 * std::numbers::pi * lambda;
     const Eigen::Vector3d tip = sim.state().x_n.col(m.nodes.size() - 1);
     const double x_exact = std::sin(phi) / phi, y_exact = (1 - std::cos(phi)) / phi;
+    std::printf("roll-up lambda %.3f: tip error (%.2e, %.2e) L, rotation error %.2e rad\n", lambda,
+                tip.x() / L - x_exact, tip.y() / L - y_exact,
+                sim.state().rotation_n(2, m.nodes.size() - 1) - phi);
     EXPECT_NEAR(tip.x() / L, x_exact, 1e-6) << "lambda " << lambda;
     EXPECT_NEAR(tip.y() / L, y_exact, 1e-6) << "lambda " << lambda;
     EXPECT_NEAR(sim.state().rotation_n(2, m.nodes.size() - 1), phi, 1e-8) << "lambda " << lambda;
@@ -53,6 +57,9 @@ TEST(VerificationStatic, TenTurnsBringTheTipBackToTheClamp) {
   Simulation sim(m);
   sim.run();
   const Eigen::Vector3d tip = sim.state().x_n.col(m.nodes.size() - 1);
+  std::printf("ten turns: tip %.2e L from the clamp, rotation %.9f rad (20 pi = %.9f)\n",
+              tip.norm() / L, sim.state().rotation_n(2, m.nodes.size() - 1),
+              20 * std::numbers::pi);
   EXPECT_LT(tip.norm() / L, 1e-6) << "tip at " << tip.transpose();
   EXPECT_NEAR(sim.state().rotation_n(2, m.nodes.size() - 1), 20 * std::numbers::pi, 1e-6);
 }
@@ -108,6 +115,9 @@ TEST(VerificationStatic, ElasticaUnderADeadTipLoadOnAConvergedMesh) {
     sim.run();
     const int tip = static_cast<int>(m.nodes.size()) - 1;
     const Eigen::Vector3d x = sim.state().x_n.col(tip);
+    std::printf("elastica alpha %g: relative errors w %.2e, u %.2e, rotation %.2e\n", row.alpha,
+                x.y() / L / row.w - 1, (L - x.x()) / L / row.u - 1,
+                sim.state().rotation_n(2, tip) / row.rot - 1);
     EXPECT_NEAR(x.y() / L, row.w, 1e-3 * row.w) << "alpha " << row.alpha;
     EXPECT_NEAR((L - x.x()) / L, row.u, 1e-3 * row.u) << "alpha " << row.alpha;
     EXPECT_NEAR(sim.state().rotation_n(2, tip), row.rot, 1e-3 * row.rot) << "alpha " << row.alpha;

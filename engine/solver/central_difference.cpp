@@ -1,0 +1,668 @@
+// The explicit path (formulation.md §3): central difference with the lumped translational mass and
+// the lumped rotary inertia of Simulation, no tangent and no Newton iteration.
+//
+// Written in velocity-Verlet form, so velocities, energies and reactions are known at the end of
+// every increment; the positions are those of the classical leapfrog. With f = f_ext - f_int -
+// f_contact per node and h the step:
+//   v_{n+1/2} = v_n + h/2 f_n / m,   x_{n+1} = x_n + h v_{n+1/2},   v_{n+1} = v_{n+1/2} + h/2 f_{n+1} / m.
+// Rotations follow each node's spatial angular momentum pi = Q J W (J the material rotary inertia,
+// W the material angular velocity): Euler's equations J W' + W x J W = Q^T m are pi' = m, with m
+// = m_ext - m_int the spatial moment, so
+//   pi_{n+1/2} = pi_n + h/2 m_n,   Q_{n+1} = exp(h omega) Q_n,   pi_{n+1} = pi_{n+1/2} + h/2 m_{n+1},
+// where omega, the spatial angular velocity of the step, carries pi_{n+1/2} through the midpoint
+// triad Q_{n+1/2} = exp(h/2 omega) Q_n: Q_{n+1/2} J Q_{n+1/2}^T omega = pi_{n+1/2} (a fixed point
+// per node). The update is symmetric in time, and linear and angular momentum change by h sum f and
+// h sum (x x f + m), which vanish for the internal and contact forces: without loads both momenta
+// are conserved to round-off.
+//
+// The internal moments come from the beam residual conjugate to the Rodrigues parameters alpha,
+// r_alpha = Xi(alpha)^T m: every force evaluation is at a committed state with alpha = 0, where
+// Xi = I and r_alpha = m. The Gauss-point histories are committed with alpha = the Rodrigues
+// parameters of the step's rotation increment exp(h omega), through Simulation::commit.
+//
+// Stable step: omega_max^2 of the assembled system is at most the largest element value
+// lambda_max(M_e^-1 K_e), M_e the element's share of the lumped mass and rotary inertia (1/6, 2/3,
+// 1/6) (Irons' element eigenvalue bound; Flanagan and Belytschko 1981), which covers the axial,
+// shear, bending, torsion and rotary modes of the 3-node element, plus a contact term
+// eps (1/m_A + 1/m_B) (Weyl's inequality); critical step 2 / omega_max, reduced by stiffness
+// damping to (2 / omega)(sqrt(1 + xi^2) - xi), xi = b omega / 2 (Belytschko, Liu and Moran,
+// "Nonlinear finite elements for continua and structures", §6.2).
+
+#include "engine/solver/simulation.hpp"
+
+#include "engine/math/rotation.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace yarnsim {
+
+namespace {
+
+constexpr double kLump[3] = {1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0};
+
+/// Rodrigues parameters 2 tan(|phi| / 2) phi / |phi| of the rotation vector phi (|phi| < pi).
+Eigen::Vector3d rodrigues_of_vector(const Eigen::Vector3d& phi) {
+  const double a = phi.norm();
+  if (a < 1e-6)
+    return (1.0 + a * a / 12.0) * phi;
+  return (2.0 * std::tan(0.5 * a) / a) * phi;
+}
+
+/// omega with [I omega]_c = pi_c on the free components c and omega_c = 0 on the others, for the
+/// spatial inertia I = Q diag(J) Q^T.
+Eigen::Vector3d solve_free(const Eigen::Matrix3d& Q, const Eigen::Vector3d& J,
+                           const Eigen::Vector3d& pi, const std::array<bool, 3>& free) {
+  if (free[0] && free[1] && free[2])
+    return Q * (Q.transpose() * pi).cwiseQuotient(J);
+  Eigen::Matrix3d I = Q * J.asDiagonal() * Q.transpose();
+  Eigen::Vector3d b = pi;
+  for (int c = 0; c < 3; ++c)
+    if (!free[c]) {
+      I.row(c).setZero();
+      I.col(c).setZero();
+      I(c, c) = 1;
+      b(c) = 0;
+    }
+  return I.ldlt().solve(b);
+}
+
+/// The spatial angular velocity omega of a step h that carries the spatial angular momentum pi
+/// through the midpoint triad exp(h/2 omega) Q_n. Fixed-point iteration (its rate is about
+/// h |omega|) from omega; false when it does not converge.
+bool midpoint_angular_velocity(const Eigen::Matrix3d& Q_n, const Eigen::Vector3d& J,
+                               const Eigen::Vector3d& pi, const std::array<bool, 3>& free, double h,
+                               Eigen::Vector3d& omega) {
+  if (!free[0] && !free[1] && !free[2]) {
+    omega.setZero();
+    return true;
+  }
+  for (int it = 0; it < 50; ++it) {
+    const Eigen::Vector3d next = solve_free(rotation_matrix(0.5 * h * omega) * Q_n, J, pi, free);
+    const double change = (next - omega).norm();
+    omega = next;
+    if (!std::isfinite(change))
+      return false;
+    if (change <= 1e-14 * omega.norm())
+      return true;
+  }
+  return false;
+}
+
+/// Rate (1/s) and second rate (1/s^2) of a prescribed table at t by central differences over h.
+double table_rate(const TimeTable& table, double t, double h) {
+  return (table.at(t + h) - table.at(t - h)) / (2 * h);
+}
+double table_second_rate(const TimeTable& table, double t, double h) {
+  return (table.at(t + h) - 2 * table.at(t) + table.at(t - h)) / (h * h);
+}
+
+} // namespace
+
+/// Central-difference integration of one explicit step of a Simulation (see the top of the file).
+class CentralDifference {
+public:
+  /// Stability of `step` at the simulation's current state with element mass factors `scale`
+  /// (>= 1) and the nodal masses they give; omega2 receives each element's lambda_max (1/s^2).
+  static ExplicitStatus estimate(const Simulation& sim, const SolutionStep& step,
+                                 const std::vector<double>& scale, const Eigen::VectorXd& mass,
+                                 std::vector<double>* omega2 = nullptr);
+  /// Element mass factors that bring every element's stable step up to the step's
+  /// mass_scaling_dt (all 1 without one), from the unscaled element values omega2.
+  static std::vector<double> mass_scaling(const SolutionStep& step,
+                                          const std::vector<double>& omega2);
+  /// Lumped nodal mass and material rotary inertia with element mass factors.
+  static void scaled_masses(const Simulation& sim, const std::vector<double>& scale,
+                            Eigen::VectorXd& mass, Eigen::Matrix3Xd& rotary);
+  /// Stability of `step` with the mass scaling it asks for, not applied to the simulation.
+  static ExplicitStatus stability(const Simulation& sim, const SolutionStep& step);
+
+  CentralDifference(Simulation& sim, int step_index);
+  /// Integrates the step to its end time. Throws std::invalid_argument when the requested step
+  /// exceeds the stable limit, ConvergenceError when the run cannot go on, Interrupted.
+  void run(SimulationObserver* observer);
+
+private:
+  void advance(double h, double t_new);
+  /// Forces and moments at the committed state at time t (alpha = 0), and the reactions; h is
+  /// the step used for the prescribed tables' rates.
+  void evaluate_forces(double t, double h);
+  [[noreturn]] void fail(const std::string& why) const;
+  /// Stops the run when the energy grows beyond what the loads and prescribed motions supplied.
+  void check_energy(double energy, const char* what);
+
+  Simulation& sim_;
+  const SolutionStep& step_;
+  int index_;
+  int n_;
+  std::vector<const TimeTable*> prescribed_u_; ///< per translational DOF (3 node + c), or null
+  std::vector<char> prescribed_r_;             ///< per node: rotation prescribed
+  std::vector<double> scale_;                  ///< element mass factors
+  ExplicitStatus status_;
+  double dt_min_ = 0;
+  double time_ = 0;
+  // Net spatial force (N) and moment (N m) per node at the committed state.
+  Eigen::Matrix3Xd force_, moment_;
+  Eigen::Matrix3Xd v_half_, omega_half_, pi_half_; ///< of the step in progress
+  Eigen::Matrix3Xd pi_;                            ///< spatial angular momentum, committed
+  Eigen::VectorXd residual_, damped_, velocity_;   ///< 6 n_nodes
+  Eigen::Matrix<double, 6, Eigen::Dynamic> increment_; ///< DOF increments of the step
+  std::vector<char> bad_;                              ///< per node: 1 no convergence, 2 too fast
+  // Energy guard.
+  double supplied_start_ = 0, supplied_max_ = 0, work_start_ = 0, energy_floor_ = 0;
+};
+
+ExplicitStatus CentralDifference::estimate(const Simulation& sim, const SolutionStep& step,
+                                           const std::vector<double>& scale,
+                                           const Eigen::VectorXd& mass,
+                                           std::vector<double>* omega2_out) {
+  const Model& model = sim.model_;
+  const State& state = sim.state_;
+  const Assembler& assembler = *sim.assembler_;
+  const int ne = static_cast<int>(model.elements.size());
+  std::vector<double> omega2(ne, 0.0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, ne, 16), [&](const tbb::blocked_range<int>& r) {
+    ElementVector f;
+    ElementMatrix K, D;
+    for (int e = r.begin(); e != r.end(); ++e) {
+      const BeamElement& el = model.elements[e];
+      const Section& sec = model.sections[el.section];
+      const BeamReference& ref = assembler.references()[e];
+      beam_internal_force(ref, state.gauss[e], assembler.nodal_values(state, e), f, &K);
+      // D = M_e^(-1/2): the element's share of each node's mass, rotary inertia in the node's
+      // material frame. Constrained DOFs do not move: their rows and columns of K drop out.
+      const double length = ref.weight.sum();
+      D.setZero();
+      for (int i = 0; i < 3; ++i) {
+        const int node = el.nodes[i];
+        double m = scale[e] * sec.rhoA * length * kLump[i];
+        if (!(m > 0))
+          m = mass(node); // a massless section: the node's mass from its other elements
+        if (m > 0)
+          D.block<3, 3>(6 * i, 6 * i) = Eigen::Matrix3d::Identity() / std::sqrt(m);
+        const Eigen::Vector3d J = scale[e] * sec.rhoJ * length * kLump[i];
+        Eigen::Vector3d inv_sqrt;
+        for (int c = 0; c < 3; ++c)
+          inv_sqrt(c) = J(c) > 0 ? 1 / std::sqrt(J(c)) : 0.0;
+        const Eigen::Matrix3d& Q = state.Q_n[node];
+        D.block<3, 3>(6 * i + 3, 6 * i + 3) = Q * inv_sqrt.asDiagonal() * Q.transpose();
+        for (int c = 0; c < 6; ++c)
+          if (assembler.equation(6 * node + c) < 0) {
+            K.row(6 * i + c).setZero();
+            K.col(6 * i + c).setZero();
+          }
+      }
+      ElementMatrix A = D * K * D;
+      A = 0.5 * (A + A.transpose()).eval();
+      const Eigen::SelfAdjointEigenSolver<ElementMatrix> eig(A, Eigen::EigenvaluesOnly);
+      omega2[e] = std::max(0.0, eig.eigenvalues().maxCoeff());
+    }
+  });
+
+  ExplicitStatus status;
+  double w2_beam = 0;
+  int worst = -1;
+  for (int e = 0; e < ne; ++e)
+    if (omega2[e] > w2_beam) {
+      w2_beam = omega2[e];
+      worst = e;
+    }
+
+  // Contact: the stiffness of each definition's law (linear: eps; power law: its slope at twice
+  // the deepest penetration, at least a tenth of the smallest radius) between the lightest moving
+  // node of each side of every candidate pair.
+  double w2_contact = 0;
+  std::string contact_name;
+  if (sim.contact_) {
+    double k = 0;
+    for (const SplineContactDefinition& def : model.spline_contacts) {
+      double r_min = std::numeric_limits<double>::infinity();
+      for (const auto* group : {&def.group_a, &def.group_b})
+        for (int s : *group)
+          r_min = std::min(r_min, model.splines[s].radius);
+      const double p = std::max(2 * sim.contact_->max_penetration(), 0.1 * r_min);
+      const double kd = def.law.penalty * def.law.exponent * std::pow(p, def.law.exponent - 1);
+      if (kd > k) {
+        k = kd;
+        contact_name = def.name;
+      }
+    }
+    auto lightest = [&](const std::array<int, 6>& g, int first) {
+      double m = std::numeric_limits<double>::infinity();
+      for (int a = first; a < first + 3; ++a) {
+        bool moves = false;
+        for (int c = 0; c < 3; ++c)
+          moves = moves || assembler.equation(6 * g[a] + c) >= 0;
+        if (moves && mass(g[a]) > 0)
+          m = std::min(m, mass(g[a]));
+      }
+      return m;
+    };
+    for (const std::array<int, 6>& g : sim.contact_->couplings())
+      w2_contact = std::max(w2_contact, k * (1 / lightest(g, 0) + 1 / lightest(g, 3)));
+  }
+
+  const double omega = std::sqrt(w2_beam + w2_contact);
+  status.critical_dt = omega > 0 ? 2 / omega : std::numeric_limits<double>::infinity();
+  if (step.rayleigh_stiffness > 0 && omega > 0) {
+    const double xi = 0.5 * step.rayleigh_stiffness * omega;
+    status.critical_dt *= std::sqrt(1 + xi * xi) - xi;
+  }
+  status.stable_dt = step.safety_factor * status.critical_dt;
+  status.limited_by = w2_contact > w2_beam ? fmt::format("contact '{}'", contact_name)
+                      : worst >= 0         ? fmt::format("element {}", worst + 1)
+                                           : std::string("nothing");
+  if (omega2_out)
+    *omega2_out = std::move(omega2);
+  return status;
+}
+
+std::vector<double> CentralDifference::mass_scaling(const SolutionStep& step,
+                                                    const std::vector<double>& omega2) {
+  std::vector<double> scale(omega2.size(), 1.0);
+  if (!(step.mass_scaling_dt > 0))
+    return scale;
+  // safety * 2 / omega_e >= target once the element's mass is multiplied by omega_e^2 / omega_t^2.
+  const double omega_t = 2 * step.safety_factor / step.mass_scaling_dt;
+  for (std::size_t e = 0; e < omega2.size(); ++e)
+    scale[e] = std::max(1.0, omega2[e] / (omega_t * omega_t));
+  return scale;
+}
+
+void CentralDifference::scaled_masses(const Simulation& sim, const std::vector<double>& scale,
+                                      Eigen::VectorXd& mass, Eigen::Matrix3Xd& rotary) {
+  const Model& model = sim.model_;
+  mass = Eigen::VectorXd::Zero(sim.state_.n_nodes());
+  rotary = Eigen::Matrix3Xd::Zero(3, sim.state_.n_nodes());
+  // Same order of summation as the Simulation's constructor.
+  for (std::size_t e = 0; e < model.elements.size(); ++e) {
+    const BeamElement& el = model.elements[e];
+    const Section& s = model.sections[el.section];
+    const double length = sim.assembler_->references()[e].weight.sum();
+    for (int i = 0; i < 3; ++i) {
+      mass(el.nodes[i]) += scale[e] * (s.rhoA * length * kLump[i]);
+      rotary.col(el.nodes[i]) += scale[e] * (s.rhoJ * length * kLump[i]);
+    }
+  }
+}
+
+ExplicitStatus CentralDifference::stability(const Simulation& sim, const SolutionStep& step) {
+  const std::vector<double> ones(sim.model_.elements.size(), 1.0);
+  std::vector<double> omega2;
+  ExplicitStatus status = estimate(sim, step, ones, sim.mass_, &omega2);
+  const std::vector<double> scale = mass_scaling(step, omega2);
+  if (scale == ones)
+    return status;
+  Eigen::VectorXd mass;
+  Eigen::Matrix3Xd rotary;
+  scaled_masses(sim, scale, mass, rotary);
+  status = estimate(sim, step, scale, mass);
+  status.added_mass = mass.sum() - sim.mass_.sum();
+  status.added_mass_percent = 100 * status.added_mass / sim.mass_.sum();
+  status.added_rotary_percent =
+      100 * (rotary.sum() - sim.rotary_inertia_.sum()) / sim.rotary_inertia_.sum();
+  return status;
+}
+
+CentralDifference::CentralDifference(Simulation& sim, int step_index)
+    : sim_(sim), step_(sim.model_.steps[step_index]), index_(step_index),
+      n_(sim.state_.n_nodes()) {
+  prescribed_u_.assign(3 * n_, nullptr);
+  for (const Simulation::PrescribedDisplacement& p : sim.prescribed_u_)
+    prescribed_u_[3 * p.node + p.component] = p.table;
+  prescribed_r_.assign(n_, 0);
+  for (const Simulation::PrescribedRotation& p : sim.prescribed_r_)
+    prescribed_r_[p.node] = 1;
+  force_ = moment_ = v_half_ = omega_half_ = pi_half_ = pi_ = Eigen::Matrix3Xd::Zero(3, n_);
+  residual_ = damped_ = velocity_ = Eigen::VectorXd::Zero(6 * n_);
+  increment_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n_);
+  bad_.assign(n_, 0);
+}
+
+void CentralDifference::fail(const std::string& why) const {
+  throw ConvergenceError(fmt::format("step {} (explicit) stopped at t = {:.6g} s: {}; time step "
+                                     "{:.4g} s, estimated stable limit {:.4g} s (set by {})",
+                                     index_ + 1, time_, why, status_.dt, status_.stable_dt,
+                                     status_.limited_by));
+}
+
+void CentralDifference::check_energy(double energy, const char* what) {
+  // The energy a stable run holds stays within what was put in (its measure at whole steps
+  // oscillates by up to (omega h / 2)^2 of the highest mode's share); an unstable one grows
+  // geometrically.
+  const double supplied = supplied_start_ + sim_.external_work_ + sim_.prescribed_work_ - work_start_;
+  supplied_max_ = std::max(supplied_max_, supplied);
+  if (!std::isfinite(energy))
+    fail(fmt::format("the {} energy is not finite: the integration is unstable", what));
+  if (energy > 3 * supplied_max_ + energy_floor_)
+    fail(fmt::format("the {} energy grew without bound ({:.4g} J against at most {:.4g} J supplied "
+                     "by the loads and prescribed motions): the integration is unstable",
+                     what, energy, supplied_max_));
+}
+
+void CentralDifference::evaluate_forces(double t, double h) {
+  State& st = sim_.state_;
+  const Assembler& assembler = *sim_.assembler_;
+  residual_.setZero();
+  sim_.assembler_->add_beams(st, residual_, false, {});
+  const double b = step_.rayleigh_stiffness;
+  if (b > 0) {
+    // Stiffness-proportional damping b K v with the velocity of the step just taken (lagged by
+    // half a step, as explicit codes do).
+    for (int i = 0; i < n_; ++i) {
+      velocity_.segment<3>(6 * i) = v_half_.col(i);
+      velocity_.segment<3>(6 * i + 3) = omega_half_.col(i);
+    }
+    damped_.setZero();
+    sim_.assembler_->add_beams(st, damped_, false, StiffnessDamping{b, 0.0, &velocity_});
+    damped_ -= residual_;
+    sim_.damping_work_ += h * damped_.dot(velocity_);
+  }
+  if (sim_.contact_)
+    sim_.contact_->assemble(residual_, *sim_.assembler_, false);
+  if (b > 0)
+    residual_ += damped_;
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> loads = sim_.external_loads(t);
+  for (int i = 0; i < n_; ++i) {
+    force_.col(i) = loads.col(i).head<3>() - residual_.segment<3>(6 * i);
+    moment_.col(i) = loads.col(i).tail<3>() - residual_.segment<3>(6 * i + 3);
+  }
+  // Reactions at constrained DOFs: internal minus external plus inertia of the prescribed
+  // motion (rotary inertia of prescribed rotations left out), as the implicit path's residual.
+  sim_.reactions_.setZero();
+  for (int i = 0; i < n_; ++i)
+    for (int c = 0; c < 6; ++c) {
+      if (assembler.equation(6 * i + c) >= 0)
+        continue;
+      double r = -(c < 3 ? force_(c, i) : moment_(c - 3, i));
+      if (c < 3 && prescribed_u_[3 * i + c])
+        r += sim_.mass_(i) * (table_second_rate(*prescribed_u_[3 * i + c], t, h) +
+                              step_.rayleigh_mass * table_rate(*prescribed_u_[3 * i + c], t, h));
+      sim_.reactions_(c, i) = r;
+    }
+}
+
+void CentralDifference::advance(double h, double t_new) {
+  State& st = sim_.state_;
+  const Assembler& assembler = *sim_.assembler_;
+  const double cm = step_.rayleigh_mass;
+  const double keep = 1 - 0.5 * cm * h; // mass-proportional damping, first half of the step
+
+  // Half kick and drift: velocities and angular momenta to the middle of the step, positions and
+  // rotation increments to its end.
+  std::fill(bad_.begin(), bad_.end(), 0);
+  tbb::parallel_for(tbb::blocked_range<int>(0, n_, 256), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i != r.end(); ++i) {
+      for (int c = 0; c < 3; ++c) {
+        if (assembler.equation(6 * i + c) >= 0) {
+          v_half_(c, i) = keep * st.v_n(c, i) + 0.5 * h * force_(c, i) / sim_.mass_(i);
+          st.x(c, i) = st.x_n(c, i) + h * v_half_(c, i);
+        } else {
+          st.x(c, i) = st.x_n(c, i); // fixed, or set by the prescribed motion below
+        }
+      }
+      if (prescribed_r_[i])
+        continue;
+      const std::array<bool, 3> free{assembler.equation(6 * i + 3) >= 0,
+                                     assembler.equation(6 * i + 4) >= 0,
+                                     assembler.equation(6 * i + 5) >= 0};
+      pi_half_.col(i) = keep * pi_.col(i) + 0.5 * h * moment_.col(i);
+      Eigen::Vector3d omega = omega_half_.col(i);
+      if (!midpoint_angular_velocity(st.Q_n[i], sim_.rotary_inertia_.col(i), pi_half_.col(i),
+                                     free, h, omega)) {
+        bad_[i] = 1;
+        continue;
+      }
+      omega_half_.col(i) = omega;
+      const Eigen::Vector3d phi = h * omega;
+      if (phi.norm() > 1.0) {
+        bad_[i] = 2;
+        continue;
+      }
+      st.alpha.col(i) = rodrigues_of_vector(phi);
+    }
+  });
+  for (int i = 0; i < n_; ++i)
+    if (bad_[i])
+      fail(fmt::format("node {} {}", sim_.model_.node_label(i),
+                       bad_[i] == 1 ? "spins too fast for its midpoint rotation to converge"
+                                    : "turns by more than 1 rad in one increment"));
+  sim_.apply_prescribed(t_new);
+  for (int i = 0; i < n_; ++i) {
+    for (int c = 0; c < 3; ++c)
+      if (assembler.equation(6 * i + c) < 0)
+        v_half_(c, i) = (st.x(c, i) - st.x_n(c, i)) / h;
+    if (prescribed_r_[i])
+      omega_half_.col(i) = rotation_vector_of_rodrigues<double>(st.alpha.col(i)) / h;
+    increment_.col(i).head<3>() = st.x.col(i) - st.x_n.col(i);
+    increment_.col(i).tail<3>() = rotation_vector_of_rodrigues<double>(st.alpha.col(i));
+  }
+  if (cm > 0)
+    for (int i = 0; i < n_; ++i)
+      sim_.damping_work_ += h * cm *
+                            (sim_.mass_(i) * v_half_.col(i).squaredNorm() +
+                             omega_half_.col(i).dot(pi_half_.col(i)));
+
+  // Contact at the new positions, then the increment is committed: Gauss-point histories with the
+  // rotation increments, triads, the work of the loads.
+  if (sim_.contact_) {
+    const std::string veto = sim_.contact_->evaluate(st.x, false);
+    if (!veto.empty())
+      fail(veto);
+  }
+  double work = 0; // of the reactions over the increment, trapezoidal rule
+  for (int i = 0; i < n_; ++i)
+    for (int c = 0; c < 6; ++c)
+      if (assembler.equation(6 * i + c) < 0)
+        work += 0.5 * sim_.reactions_(c, i) * increment_(c, i);
+  sim_.commit(step_, h, t_new);
+  time_ = t_new;
+  evaluate_forces(t_new, h);
+  for (int i = 0; i < n_; ++i)
+    for (int c = 0; c < 6; ++c)
+      if (assembler.equation(6 * i + c) < 0)
+        work += 0.5 * sim_.reactions_(c, i) * increment_(c, i);
+  sim_.prescribed_work_ += work;
+
+  // Second half kick (commit left the velocities at zero).
+  const double damp = 1 + 0.5 * cm * h;
+  tbb::parallel_for(tbb::blocked_range<int>(0, n_, 256), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i != r.end(); ++i) {
+      const double m = sim_.mass_(i);
+      for (int c = 0; c < 3; ++c) {
+        if (assembler.equation(6 * i + c) >= 0) {
+          st.v_n(c, i) = (v_half_(c, i) + 0.5 * h * force_(c, i) / m) / damp;
+          st.a_n(c, i) = force_(c, i) / m;
+        } else if (const TimeTable* table = prescribed_u_[3 * i + c]) {
+          st.v_n(c, i) = table_rate(*table, t_new, h);
+          st.a_n(c, i) = table_second_rate(*table, t_new, h);
+        }
+      }
+      const Eigen::Matrix3d& Q = st.Q_n[i];
+      const Eigen::Vector3d J = sim_.rotary_inertia_.col(i);
+      if (prescribed_r_[i]) {
+        st.W_n.col(i) = Q.transpose() * omega_half_.col(i);
+        pi_.col(i) = Q * J.cwiseProduct(st.W_n.col(i));
+        continue;
+      }
+      const std::array<bool, 3> free{assembler.equation(6 * i + 3) >= 0,
+                                     assembler.equation(6 * i + 4) >= 0,
+                                     assembler.equation(6 * i + 5) >= 0};
+      const Eigen::Vector3d pi = (pi_half_.col(i) + 0.5 * h * moment_.col(i)) / damp;
+      const Eigen::Vector3d omega = solve_free(Q, J, pi, free);
+      st.W_n.col(i) = Q.transpose() * omega;
+      if (free[0] && free[1] && free[2]) {
+        pi_.col(i) = pi; // kept as integrated: the angular momentum balance stays exact
+      } else {
+        pi_.col(i) = Q * J.cwiseProduct(st.W_n.col(i));
+        for (int c = 0; c < 3; ++c)
+          if (free[c])
+            pi_(c, i) = pi(c);
+      }
+    }
+  });
+}
+
+void CentralDifference::run(SimulationObserver* observer) {
+  State& st = sim_.state_;
+  const Assembler& assembler = *sim_.assembler_;
+  const double dt = step_.dt_initial;
+  if (!(step_.safety_factor > 0))
+    throw std::invalid_argument(fmt::format(
+        "step {} (explicit): expected a safety factor > 0, found {}", index_ + 1,
+        step_.safety_factor));
+  if (!(dt > 0))
+    throw std::invalid_argument(
+        fmt::format("step {} (explicit): expected a time step dt > 0, found {}", index_ + 1, dt));
+  for (int i = 0; i < n_; ++i) {
+    bool moves = false, turns = false;
+    for (int c = 0; c < 3; ++c) {
+      moves = moves || assembler.equation(6 * i + c) >= 0;
+      turns = turns || assembler.equation(6 * i + 3 + c) >= 0;
+    }
+    if (moves && !(sim_.mass_(i) > 0))
+      throw std::invalid_argument(fmt::format(
+          "step {} (explicit): node {} moves freely but has no mass (rhoA of its sections)",
+          index_ + 1, sim_.model_.node_label(i)));
+    if (turns && !(sim_.rotary_inertia_.col(i).array() > 0).all())
+      throw std::invalid_argument(fmt::format(
+          "step {} (explicit): node {} turns freely but its rotary inertia is [{}, {}, {}] kg "
+          "m^2; explicit steps need rhoJ > 0 in every component",
+          index_ + 1, sim_.model_.node_label(i), sim_.rotary_inertia_(0, i),
+          sim_.rotary_inertia_(1, i), sim_.rotary_inertia_(2, i)));
+  }
+
+  // Mass scaling holds for this step only: the model's masses come back at its end.
+  struct RestoreMass {
+    Simulation& sim;
+    Eigen::VectorXd mass;
+    Eigen::Matrix3Xd rotary;
+    ~RestoreMass() {
+      sim.mass_ = std::move(mass);
+      sim.rotary_inertia_ = std::move(rotary);
+    }
+  } restore{sim_, sim_.mass_, sim_.rotary_inertia_};
+
+  time_ = st.time;
+  st.x = st.x_n;
+  st.alpha.setZero();
+  if (sim_.contact_) {
+    const std::string veto = sim_.contact_->evaluate(st.x, false);
+    if (!veto.empty())
+      fail(veto);
+  }
+  scale_.assign(sim_.model_.elements.size(), 1.0);
+  std::vector<double> omega2;
+  status_ = estimate(sim_, step_, scale_, sim_.mass_, &omega2);
+  scale_ = mass_scaling(step_, omega2);
+  if (std::any_of(scale_.begin(), scale_.end(), [](double s) { return s > 1; })) {
+    const double m0 = sim_.mass_.sum(), j0 = sim_.rotary_inertia_.sum();
+    scaled_masses(sim_, scale_, sim_.mass_, sim_.rotary_inertia_);
+    status_ = estimate(sim_, step_, scale_, sim_.mass_);
+    status_.added_mass = sim_.mass_.sum() - m0;
+    status_.added_mass_percent = 100 * status_.added_mass / m0;
+    status_.added_rotary_percent = 100 * (sim_.rotary_inertia_.sum() - j0) / j0;
+  }
+  status_.dt = std::min(dt, status_.stable_dt);
+  status_.increments = sim_.explicit_status_.increments;
+  sim_.explicit_status_ = status_;
+  if (dt > status_.stable_dt * (1 + 1e-9))
+    throw std::invalid_argument(fmt::format(
+        "step {} (explicit): the requested time step dt = {:.6g} s exceeds the stable limit "
+        "{:.6g} s (safety factor {} x critical step {:.6g} s, set by {}){}; lower dt or ask for "
+        "mass scaling (mass_scaling_dt)",
+        index_ + 1, dt, status_.stable_dt, step_.safety_factor, status_.critical_dt,
+        status_.limited_by,
+        status_.added_mass > 0
+            ? fmt::format(" after mass scaling added {:.4g} kg ({:.3g} %)", status_.added_mass,
+                          status_.added_mass_percent)
+            : std::string()));
+  // A model that deforms or comes into contact may lower the limit: the step then follows it,
+  // down to dt_min (at most dt / 1000).
+  dt_min_ = std::min(step_.dt_min, 1e-3 * dt);
+
+  // Forces, angular momenta and the energy balance at the start.
+  v_half_ = st.v_n;
+  for (int i = 0; i < n_; ++i) {
+    pi_.col(i) = st.Q_n[i] * sim_.rotary_inertia_.col(i).cwiseProduct(st.W_n.col(i));
+    omega_half_.col(i) = st.Q_n[i] * st.W_n.col(i);
+  }
+  const double damping_before = sim_.damping_work_;
+  evaluate_forces(time_, dt);
+  sim_.damping_work_ = damping_before;
+  supplied_start_ = sim_.kinetic_energy() + sim_.strain_energy() + sim_.contact_energy();
+  supplied_max_ = supplied_start_;
+  work_start_ = sim_.external_work_ + sim_.prescribed_work_;
+  sim_.energy_reference_ = supplied_start_ + sim_.damping_work_ - work_start_;
+  energy_floor_ = sim_.floor_force_ * sim_.min_length_;
+
+  const int every = std::max(1, step_.stable_dt_every);
+  const int output_every = std::max(1, step_.output_every);
+  double h_target = status_.dt;
+  long count = 0;
+  while (time_ < step_.end_time * (1 - 1e-12)) {
+    if (sim_.options_.stop_requested && sim_.options_.stop_requested->load())
+      throw Interrupted(fmt::format("interrupted at t = {:.6g} s after increment {}", time_,
+                                    st.increment));
+    if (count > 0 && count % every == 0) {
+      const ExplicitStatus now = estimate(sim_, step_, scale_, sim_.mass_);
+      status_.critical_dt = now.critical_dt;
+      status_.stable_dt = now.stable_dt;
+      status_.limited_by = now.limited_by;
+      if (status_.stable_dt < dt_min_)
+        fail(fmt::format("the stable time step {:.4g} s fell below the minimum {:.4g} s",
+                         status_.stable_dt, dt_min_));
+      h_target = std::min(dt, status_.stable_dt);
+      check_energy(sim_.kinetic_energy() + sim_.strain_energy() + sim_.contact_energy(), "total");
+    }
+    // Land exactly on the end time; avoid a sliver of a last increment.
+    double h = std::min(h_target, step_.end_time - time_);
+    if (step_.end_time - (time_ + h) < 1e-3 * h)
+      h = step_.end_time - time_;
+    status_.dt = h;
+    advance(h, time_ + h);
+    ++count;
+    ++status_.increments;
+    sim_.explicit_status_ = status_;
+    check_energy(sim_.kinetic_energy(), "kinetic");
+
+    const bool last = time_ >= step_.end_time * (1 - 1e-12);
+    if (observer && (st.increment % output_every == 0 || last)) {
+      IncrementReport report;
+      report.step = index_;
+      report.increment = st.increment;
+      report.time = time_;
+      report.dt = h;
+      observer->on_increment(sim_, report);
+    }
+  }
+  time_ = step_.end_time;
+}
+
+void Simulation::run_explicit(int step_index, SimulationObserver* observer) {
+  CentralDifference(*this, step_index).run(observer);
+}
+
+ExplicitStatus Simulation::explicit_stability(const SolutionStep& step) const {
+  return CentralDifference::stability(*this, step);
+}
+
+EnergyBalance Simulation::energy_balance() const {
+  EnergyBalance e;
+  e.kinetic = kinetic_energy();
+  e.internal = strain_energy();
+  e.contact = contact_energy();
+  e.external_work = external_work_;
+  e.prescribed_work = prescribed_work_;
+  e.damping = damping_work_;
+  e.error = e.kinetic + e.internal + e.contact + e.damping - e.external_work - e.prescribed_work -
+            energy_reference_;
+  return e;
+}
+
+} // namespace yarnsim
