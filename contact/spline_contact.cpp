@@ -35,7 +35,8 @@ using Eigen::Vector3d;
 constexpr double kKnotBand = 1e-8;
 /// A Hessian eigenvalue below this fraction of the largest counts as not positive.
 constexpr double kDefinite = 1e-10;
-/// Shift added to an indefinite Hessian, as a fraction of its largest eigenvalue.
+/// Added to the magnitude of a curvature that is not positive, as a fraction of the local
+/// curvature scale.
 constexpr double kShift = 1e-3;
 /// Largest step per iteration, segments.
 constexpr double kMaxStep = 1.0;
@@ -120,6 +121,51 @@ struct Solve {
   double ub = 0.0;
 };
 
+/// First local minimiser in (0, 1] of phi(t) = |g0 + t g1 + t^2 g2|^2 / 2, the half squared
+/// distance along a search direction (exact, as the curves are quadratic in u), given that
+/// phi'(0) = g0.g1 < 0; 1 if phi decreases on the whole interval. phi' is the cubic
+/// c0 + c1 t + c2 t^2 + c3 t^3; it is monotone between the roots of phi'', so the first sign
+/// change is bracketed and bisected.
+double first_minimum_on_ray(const Vector3d& g0, const Vector3d& g1, const Vector3d& g2) {
+  const double c0 = g0.dot(g1);
+  const double c1 = g1.squaredNorm() + 2.0 * g0.dot(g2);
+  const double c2 = 3.0 * g1.dot(g2);
+  const double c3 = 2.0 * g2.squaredNorm();
+  auto slope = [&](double t) { return c0 + t * (c1 + t * (c2 + t * c3)); };
+  // Ends of the monotone pieces of phi' in (0, 1): roots of c1 + 2 c2 t + 3 c3 t^2.
+  double ends[3] = {1.0, 1.0, 1.0};
+  int n = 0;
+  if (c3 > 0.0) {
+    const double disc = c2 * c2 - 3.0 * c1 * c3;
+    if (disc > 0.0) {
+      const double root = std::sqrt(disc);
+      for (const double t : {(-c2 - root) / (3.0 * c3), (-c2 + root) / (3.0 * c3)}) {
+        if (t > 0.0 && t < 1.0) {
+          ends[n++] = t;
+        }
+      }
+    }
+  } else if (c2 != 0.0) {
+    const double t = -c1 / (2.0 * c2);
+    if (t > 0.0 && t < 1.0) {
+      ends[n++] = t;
+    }
+  }
+  double lo = 0.0;
+  for (int i = 0; i <= n; ++i) {
+    double hi = ends[i];
+    if (slope(hi) >= 0.0) {
+      for (int k = 0; k < 60 && hi - lo > 1e-15; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (slope(mid) < 0.0 ? lo : hi) = mid;
+      }
+      return hi;
+    }
+    lo = hi;
+  }
+  return 1.0;
+}
+
 /// Safeguarded Newton for min |g|^2 / 2 over (u_A, u_B) on the extended polynomials.
 Solve newton_pair(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
                   const SegmentBasis& bb, double ua, double ub, const SplineContactOptions& opt) {
@@ -143,11 +189,27 @@ Solve newton_pair(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb
       break;
     }
     const bool definite = lmin > kDefinite * scale;
-    const double shift = definite ? 0.0 : kShift * scale - lmin;
-    const double ma = a + shift;
-    const double mc = c + shift;
-    const double det = ma * mc - b * b;
-    Eigen::Vector2d step(-(mc * e.r(0) - b * e.r(1)) / det, -(ma * e.r(1) - b * e.r(0)) / det);
+    Eigen::Vector2d step;
+    if (definite) {
+      const double det = a * c - b * b;
+      step << -(c * e.r(0) - b * e.r(1)) / det, -(a * e.r(1) - b * e.r(0)) / det;
+    } else {
+      // Eigenvalue modification (Nocedal & Wright, Numerical Optimization, 2nd ed., §3.4), as
+      // project_point does in one dimension: in the eigenbasis of H a curvature that is not
+      // positive is replaced by its magnitude plus kShift * scale. Shifting the whole of H so
+      // that its least eigenvalue becomes kShift * scale would make the step along that
+      // eigenvector up to 1 / kShift times longer than the curvature warrants; capped, it would
+      // be a jump of a whole segment along the eigenvector with the gradient's well-conditioned
+      // component lost, which from the midpoints can skip a nearby in-range minimum and settle
+      // in one beyond the range (OutOfRange: a contact lost).
+      const double theta = 0.5 * std::atan2(2.0 * b, a - c);
+      const Eigen::Vector2d vmax(std::cos(theta), std::sin(theta)); // eigenvector of lmax
+      const Eigen::Vector2d vmin(-vmax(1), vmax(0));                // eigenvector of lmin
+      auto modified = [&](double l) {
+        return l > kDefinite * scale ? l : std::abs(l) + kShift * scale;
+      };
+      step = -(vmax.dot(e.r) / modified(lmax)) * vmax - (vmin.dot(e.r) / modified(lmin)) * vmin;
+    }
     double length = step.norm();
     if (definite && converges(length, previous, opt.step_tolerance)) {
       s.converged = true;
@@ -160,7 +222,14 @@ Solve newton_pair(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb
       step *= kMaxStep / length;
       length = kMaxStep;
     }
+    // A capped or modified step follows no trusted model over its whole length, and with the
+    // Armijo test alone it may cross the valley of the nearest minimum and land in another one
+    // (beyond a range): it starts instead at the first minimum of Phi along its direction.
     double t = 1.0;
+    if ((capped || !definite) && e.r.dot(step) < 0.0) {
+      t = first_minimum_on_ray(e.g, step(0) * e.ga + step(1) * e.gb,
+                               0.5 * (step(0) * step(0) * gaa + step(1) * step(1) * gbb));
+    }
     if (!(definite && length < kTrustedStep)) {
       const double slope = e.r.dot(step);
       while (half_squared_distance(xa, ba, xb, bb, ua + t * step(0), ub + t * step(1)) >

@@ -90,10 +90,13 @@ struct SplineContactResult {
 
 /// Solves the LCP (eq. 11) between segment `basis_A` of curve A (control points `control_A`,
 /// columns, metres) and segment `basis_B` of curve B: r = [C_A'.g, -C_B'.g] = 0, g = C_A - C_B,
-/// taken as the minimum of |g|^2 / 2 by Newton's method with an eigenvalue shift where the
-/// Hessian is not positive definite, a step cap of one segment and an Armijo backtracking. The
-/// segments' polynomials are extended beyond their ranges, so a point that leaves a range is
-/// found and handed to the neighbour (OutOfRange).
+/// taken as a local minimum of |g|^2 / 2 by Newton's method: where the Hessian is not positive
+/// definite, its eigenvalues that are not positive are replaced by their magnitudes plus a small
+/// shift; steps are capped at one segment; a capped or modified step is cut to the first
+/// minimum of |g|^2 / 2 along it; an Armijo backtracking follows. The segments' polynomials are
+/// extended beyond their ranges, so a point that leaves a range is found and handed to the
+/// neighbour (OutOfRange). Curved pairs can have several local minima: the one found is the one
+/// this descent from `start` reaches, not necessarily the closest over the ranges.
 ///
 /// Ownership: the segment owning xi is the one of SegmentBasis::owns. Where a solution lies
 /// within 1e-8 segments of an interior knot, the side is decided instead by the sign of
