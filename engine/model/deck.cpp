@@ -32,6 +32,7 @@ constexpr Range kShearFactor{0, 1, true, false};
 constexpr Range kExponent{1, kInf, true, false};
 constexpr Range kElementCount{1, 1e7, false, false};
 constexpr Range kIterations{1, 1000, false, false};
+constexpr Range kSafetyFactor{0, 1, true, false};
 
 constexpr KeySpec kMaterialKeys[] = {
     {"name", Type::String, kRequired},
@@ -158,6 +159,11 @@ constexpr KeySpec kStepKeys[] = {
     {"newmark", Type::Table, kOptional, kAnyValue, &kNewmark},
     {"rayleigh", Type::Table, kOptional, kAnyValue, &kRayleigh},
     {"output_every", Type::Integer, kOptional, kAtLeastOne},
+    // Explicit steps only.
+    {"safety_factor", Type::Number, kOptional, kSafetyFactor},
+    {"mass_scaling_dt", Type::Number, kOptional, kPositive},
+    {"stable_dt_every", Type::Integer, kOptional, kAtLeastOne},
+    {"energy_monitor", Type::Boolean},
 };
 constexpr TableSpec kStep{"[[steps]]", kStepKeys};
 
@@ -837,11 +843,18 @@ private:
         t.error("rayleigh", "'rayleigh' damping applies only to dynamic and explicit steps; this "
                             "step is \"static\"");
       if (known_type && step.type == StepType::Explicit)
-        for (std::string_view k : {"max_iterations", "tolerance"})
+        for (std::string_view k : {"max_iterations", "tolerance", "dt_max"})
           if (t.present(k))
             t.error(k, fmt::format("'{}' applies only to implicit (static, dynamic) steps; this "
                                    "step is \"explicit\"",
                                    k));
+      if (known_type && step.type != StepType::Explicit)
+        for (std::string_view k :
+             {"safety_factor", "mass_scaling_dt", "stable_dt_every", "energy_monitor"})
+          if (t.present(k))
+            t.error(k, fmt::format("'{}' applies only to type = \"explicit\"; this step is "
+                                   "\"{}\"",
+                                   k, *type));
       if (known_type && step.type != StepType::Static)
         dynamic_step_ = dynamic_step_ ? dynamic_step_ : &t;
       if (known_type && step.type == StepType::Explicit)
@@ -885,6 +898,11 @@ private:
       }
       step.output_every = static_cast<int>(
           std::min<long long>(t.integer("output_every").value_or(1), 1'000'000'000));
+      step.safety_factor = t.number("safety_factor").value_or(step.safety_factor);
+      step.mass_scaling_dt = t.number("mass_scaling_dt").value_or(0);
+      step.stable_dt_every = static_cast<int>(std::min<long long>(
+          t.integer("stable_dt_every").value_or(step.stable_dt_every), 1'000'000'000));
+      step.energy_monitor = t.boolean("energy_monitor").value_or(true);
       model_.steps.push_back(step);
       start = end;
       previous = t.path();

@@ -113,6 +113,11 @@ struct SolutionStep {
   double rayleigh_mass = 0;      ///< C = a M + b K: a, 1/s
   double rayleigh_stiffness = 0; ///< b, s
   int output_every = 1;          ///< write results every N completed increments
+  // Explicit steps (central difference, engine/solver/central_difference.cpp).
+  double safety_factor = 0.8; ///< step = safety_factor * critical step (2 / omega_max)
+  double mass_scaling_dt = 0; ///< s; > 0: add element mass until the stable step reaches it
+  int stable_dt_every = 100;  ///< increments between estimates of the stable step
+  bool energy_monitor = true; ///< energy bookkeeping written to energy.csv
 };
 
 enum class MonitorType { Node, NodeSet, Element };

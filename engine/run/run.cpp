@@ -178,6 +178,31 @@ public:
                                     contact->max_penetration());
     }
     const SolutionStep& step = model_.steps[r.step];
+    // Energy monitor of explicit steps (docs/input.md, "Explicit steps").
+    if (step.type == StepType::Explicit && options_.progress && r.step != explicit_reported_) {
+      const ExplicitStatus& x = sim.explicit_status();
+      clear_line();
+      fmt::print(stderr,
+                 "step {} (explicit): dt = {:.4g} s, stable limit {:.4g} s (set by {}), mass "
+                 "scaling added {:.4g} kg ({:.3g} % of the mass, {:.3g} % of the rotary "
+                 "inertia)\n",
+                 r.step + 1, x.dt, x.stable_dt, x.limited_by, x.added_mass, x.added_mass_percent,
+                 x.added_rotary_percent);
+      explicit_reported_ = r.step;
+    }
+    if (step.type == StepType::Explicit && step.energy_monitor) {
+      if (!energy_csv_)
+        energy_csv_ = std::make_unique<output::CsvWriter>(
+            options_.output_dir / "energy.csv",
+            std::vector<std::string>{"time [s]", "kinetic [J]", "internal [J]", "contact [J]",
+                                     "external_work [J]", "prescribed_work [J]", "damping [J]",
+                                     "balance_error [J]", "kinetic/internal [-]"});
+      const EnergyBalance e = sim.energy_balance();
+      const double stored = e.internal + e.contact;
+      energy_csv_->row(std::vector<double>{r.time, e.kinetic, e.internal, e.contact,
+                                           e.external_work, e.prescribed_work, e.damping, e.error,
+                                           stored > 0 ? e.kinetic / stored : 0.0});
+    }
     const bool last = r.time >= t_end_ * (1 - 1e-12);
     if (r.increment % std::max(1, step.output_every) == 0 || last) {
       output::StepResults out;
@@ -271,6 +296,8 @@ private:
   double t_end_ = 0;
   long iterations_ = 0;
   std::unique_ptr<output::CsvWriter> contact_csv_;
+  std::unique_ptr<output::CsvWriter> energy_csv_; ///< explicit steps
+  int explicit_reported_ = -1;                    ///< last explicit step announced
   std::unique_ptr<BiaxialCurves> curves_;
   std::string contact_status_;
 };

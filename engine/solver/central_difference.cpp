@@ -4,11 +4,11 @@
 // Written in velocity-Verlet form, so velocities, energies and reactions are known at the end of
 // every increment; the positions are those of the classical leapfrog. With f = f_ext - f_int -
 // f_contact per node and h the step:
-//   v_{n+1/2} = v_n + h/2 f_n / m,   x_{n+1} = x_n + h v_{n+1/2},   v_{n+1} = v_{n+1/2} + h/2 f_{n+1} / m.
+//   v_{n+1/2} = v_n + h/2 f_n/m, x_{n+1} = x_n + h v_{n+1/2}, v_{n+1} = v_{n+1/2} + h/2 f_{n+1}/m.
 // Rotations follow each node's spatial angular momentum pi = Q J W (J the material rotary inertia,
 // W the material angular velocity): Euler's equations J W' + W x J W = Q^T m are pi' = m, with m
 // = m_ext - m_int the spatial moment, so
-//   pi_{n+1/2} = pi_n + h/2 m_n,   Q_{n+1} = exp(h omega) Q_n,   pi_{n+1} = pi_{n+1/2} + h/2 m_{n+1},
+//   pi_{n+1/2} = pi_n + h/2 m_n,  Q_{n+1} = exp(h omega) Q_n,  pi_{n+1} = pi_{n+1/2} + h/2 m_{n+1},
 // where omega, the spatial angular velocity of the step, carries pi_{n+1/2} through the midpoint
 // triad Q_{n+1/2} = exp(h/2 omega) Q_n: Q_{n+1/2} J Q_{n+1/2}^T omega = pi_{n+1/2} (a fixed point
 // per node). The update is symmetric in time, and linear and angular momentum change by h sum f and
@@ -18,7 +18,7 @@
 // The internal moments come from the beam residual conjugate to the Rodrigues parameters alpha,
 // r_alpha = Xi(alpha)^T m: every force evaluation is at a committed state with alpha = 0, where
 // Xi = I and r_alpha = m. The Gauss-point histories are committed with alpha = the Rodrigues
-// parameters of the step's rotation increment exp(h omega), through Simulation::commit.
+// parameters of the step's rotation increment exp(h omega), as Simulation::commit does.
 //
 // Stable step: omega_max^2 of the assembled system is at most the largest element value
 // lambda_max(M_e^-1 K_e), M_e the element's share of the lumped mass and rotary inertia (1/6, 2/3,
@@ -34,11 +34,15 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
+#include <numbers>
+#include <string>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <vector>
 
 namespace yarnsim {
 
@@ -94,6 +98,24 @@ bool midpoint_angular_velocity(const Eigen::Matrix3d& Q_n, const Eigen::Vector3d
   return false;
 }
 
+/// Unwrapped rotation vector: the representative of R closest to the previous value (as
+/// Simulation::commit keeps it).
+Eigen::Vector3d unwrap_rotation(const Eigen::Matrix3d& R, const Eigen::Vector3d& previous) {
+  const Eigen::Vector3d v = rotation_vector(R);
+  const double angle = v.norm();
+  if (angle < 1e-12)
+    return previous.norm() < std::numbers::pi ? v : previous;
+  const Eigen::Vector3d e = v / angle;
+  const double k = std::round((previous.dot(e) - angle) / (2 * std::numbers::pi));
+  return (angle + 2 * std::numbers::pi * k) * e;
+}
+
+/// One step of Bjorck's iteration towards the nearest rotation, Q (3 I - Q^T Q) / 2: applied at
+/// every increment it holds a triad orthonormal to round-off at a fraction of an SVD's cost.
+Eigen::Matrix3d polished(const Eigen::Matrix3d& Q) {
+  return 0.5 * Q * (3 * Eigen::Matrix3d::Identity() - Q.transpose() * Q);
+}
+
 /// Rate (1/s) and second rate (1/s^2) of a prescribed table at t by central differences over h.
 double table_rate(const TimeTable& table, double t, double h) {
   return (table.at(t + h) - table.at(t - h)) / (2 * h);
@@ -129,12 +151,18 @@ public:
 
 private:
   void advance(double h, double t_new);
+  /// Accepts the increment to t_new: work of the loads, Gauss-point histories with the rotation
+  /// increments, triads, contact warm starts (Simulation::commit's bookkeeping, in parallel and
+  /// with a cheaper re-orthonormalisation of the triads).
+  void commit(double t_new);
   /// Forces and moments at the committed state at time t (alpha = 0), and the reactions; h is
   /// the step used for the prescribed tables' rates.
   void evaluate_forces(double t, double h);
   [[noreturn]] void fail(const std::string& why) const;
   /// Stops the run when the energy grows beyond what the loads and prescribed motions supplied.
   void check_energy(double energy, const char* what);
+  /// Adds node_work_ to kick_work_ in node order.
+  void collect_kick_work();
 
   Simulation& sim_;
   const SolutionStep& step_;
@@ -146,15 +174,20 @@ private:
   ExplicitStatus status_;
   double dt_min_ = 0;
   double time_ = 0;
-  // Net spatial force (N) and moment (N m) per node at the committed state.
+  // Net spatial force (N) and moment (N m) per node at the committed state, and the loads alone.
   Eigen::Matrix3Xd force_, moment_;
-  Eigen::Matrix3Xd v_half_, omega_half_, pi_half_; ///< of the step in progress
-  Eigen::Matrix3Xd pi_;                            ///< spatial angular momentum, committed
-  Eigen::VectorXd residual_, damped_, velocity_;   ///< 6 n_nodes
+  Eigen::Matrix<double, 6, Eigen::Dynamic> loads_;
+  Eigen::Matrix3Xd v_half_, omega_half_, pi_half_;     ///< of the step in progress
+  Eigen::Matrix3Xd pi_;                                ///< spatial angular momentum, committed
+  Eigen::VectorXd residual_, damped_, velocity_;       ///< 6 n_nodes
   Eigen::Matrix<double, 6, Eigen::Dynamic> increment_; ///< DOF increments of the step
   std::vector<char> bad_;                              ///< per node: 1 no convergence, 2 too fast
-  // Energy guard.
-  double supplied_start_ = 0, supplied_max_ = 0, work_start_ = 0, energy_floor_ = 0;
+  // Energy guard. The work of the loads is taken as the velocity-Verlet kicks do it, h/2 f .
+  // (v_before + v_after) / 2 per half kick, which is what the kinetic energy at whole steps
+  // receives (the trapezoidal external_work lags it by the half kick still to come).
+  double supplied_start_ = 0, supplied_max_ = 0, prescribed_start_ = 0, energy_floor_ = 0;
+  double kick_work_ = 0;
+  std::vector<double> node_work_; ///< per node, of the half kick in progress
 };
 
 ExplicitStatus CentralDifference::estimate(const Simulation& sim, const SolutionStep& step,
@@ -213,38 +246,40 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
       worst = e;
     }
 
-  // Contact: the stiffness of each definition's law (linear: eps; power law: its slope at twice
-  // the deepest penetration, at least a tenth of the smallest radius) between the lightest moving
-  // node of each side of every candidate pair.
+  // Contact: each definition's law stiffness (linear: eps; power law: its slope at twice the
+  // deepest penetration, at least a tenth of the smallest radius) between the lightest moving
+  // nodes of its two sides. Over all pairs the definition could make, not only the current
+  // candidates, so a contact that closes between two estimates is covered.
   double w2_contact = 0;
   std::string contact_name;
   if (sim.contact_) {
-    double k = 0;
-    for (const SplineContactDefinition& def : model.spline_contacts) {
-      double r_min = std::numeric_limits<double>::infinity();
-      for (const auto* group : {&def.group_a, &def.group_b})
-        for (int s : *group)
-          r_min = std::min(r_min, model.splines[s].radius);
-      const double p = std::max(2 * sim.contact_->max_penetration(), 0.1 * r_min);
-      const double kd = def.law.penalty * def.law.exponent * std::pow(p, def.law.exponent - 1);
-      if (kd > k) {
-        k = kd;
-        contact_name = def.name;
-      }
-    }
-    auto lightest = [&](const std::array<int, 6>& g, int first) {
+    auto lightest = [&](const std::vector<int>& splines, double& radius) {
       double m = std::numeric_limits<double>::infinity();
-      for (int a = first; a < first + 3; ++a) {
-        bool moves = false;
-        for (int c = 0; c < 3; ++c)
-          moves = moves || assembler.equation(6 * g[a] + c) >= 0;
-        if (moves && mass(g[a]) > 0)
-          m = std::min(m, mass(g[a]));
+      for (int s : splines) {
+        radius = std::min(radius, model.splines[s].radius);
+        for (int node : model.splines[s].nodes) {
+          bool moves = false;
+          for (int c = 0; c < 3; ++c)
+            moves = moves || assembler.equation(6 * node + c) >= 0;
+          if (moves && mass(node) > 0)
+            m = std::min(m, mass(node));
+        }
       }
       return m;
     };
-    for (const std::array<int, 6>& g : sim.contact_->couplings())
-      w2_contact = std::max(w2_contact, k * (1 / lightest(g, 0) + 1 / lightest(g, 3)));
+    for (const SplineContactDefinition& def : model.spline_contacts) {
+      double r_min = std::numeric_limits<double>::infinity();
+      double m_a = lightest(def.group_a, r_min), m_b = lightest(def.group_b, r_min);
+      if (def.self_contact) // pairs within a group too
+        m_a = m_b = std::min(m_a, m_b);
+      const double p = std::max(2 * sim.contact_->max_penetration(), 0.1 * r_min);
+      const double k = def.law.penalty * def.law.exponent * std::pow(p, def.law.exponent - 1);
+      const double w2 = k * (1 / m_a + 1 / m_b);
+      if (w2 > w2_contact) {
+        w2_contact = w2;
+        contact_name = def.name;
+      }
+    }
   }
 
   const double omega = std::sqrt(w2_beam + w2_contact);
@@ -310,8 +345,7 @@ ExplicitStatus CentralDifference::stability(const Simulation& sim, const Solutio
 }
 
 CentralDifference::CentralDifference(Simulation& sim, int step_index)
-    : sim_(sim), step_(sim.model_.steps[step_index]), index_(step_index),
-      n_(sim.state_.n_nodes()) {
+    : sim_(sim), step_(sim.model_.steps[step_index]), index_(step_index), n_(sim.state_.n_nodes()) {
   prescribed_u_.assign(3 * n_, nullptr);
   for (const Simulation::PrescribedDisplacement& p : sim.prescribed_u_)
     prescribed_u_[3 * p.node + p.component] = p.table;
@@ -322,6 +356,12 @@ CentralDifference::CentralDifference(Simulation& sim, int step_index)
   residual_ = damped_ = velocity_ = Eigen::VectorXd::Zero(6 * n_);
   increment_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n_);
   bad_.assign(n_, 0);
+  node_work_.assign(n_, 0.0);
+}
+
+void CentralDifference::collect_kick_work() {
+  for (double w : node_work_)
+    kick_work_ += w;
 }
 
 void CentralDifference::fail(const std::string& why) const {
@@ -335,7 +375,16 @@ void CentralDifference::check_energy(double energy, const char* what) {
   // The energy a stable run holds stays within what was put in (its measure at whole steps
   // oscillates by up to (omega h / 2)^2 of the highest mode's share); an unstable one grows
   // geometrically.
-  const double supplied = supplied_start_ + sim_.external_work_ + sim_.prescribed_work_ - work_start_;
+  // Prescribed rotations turn their nodes' rotary inertia without a reaction for it (see
+  // evaluate_forces): that kinetic energy counts as supplied.
+  double spun = 0;
+  for (int i = 0; i < n_; ++i)
+    if (prescribed_r_[i]) {
+      const Eigen::Vector3d W = sim_.state_.W_n.col(i);
+      spun += 0.5 * W.dot(sim_.rotary_inertia_.col(i).cwiseProduct(W));
+    }
+  const double supplied =
+      supplied_start_ + kick_work_ + sim_.prescribed_work_ - prescribed_start_ + spun;
   supplied_max_ = std::max(supplied_max_, supplied);
   if (!std::isfinite(energy))
     fail(fmt::format("the {} energy is not finite: the integration is unstable", what));
@@ -367,10 +416,10 @@ void CentralDifference::evaluate_forces(double t, double h) {
     sim_.contact_->assemble(residual_, *sim_.assembler_, false);
   if (b > 0)
     residual_ += damped_;
-  const Eigen::Matrix<double, 6, Eigen::Dynamic> loads = sim_.external_loads(t);
+  loads_ = sim_.external_loads(t);
   for (int i = 0; i < n_; ++i) {
-    force_.col(i) = loads.col(i).head<3>() - residual_.segment<3>(6 * i);
-    moment_.col(i) = loads.col(i).tail<3>() - residual_.segment<3>(6 * i + 3);
+    force_.col(i) = loads_.col(i).head<3>() - residual_.segment<3>(6 * i);
+    moment_.col(i) = loads_.col(i).tail<3>() - residual_.segment<3>(6 * i + 3);
   }
   // Reactions at constrained DOFs: internal minus external plus inertia of the prescribed
   // motion (rotary inertia of prescribed rotations left out), as the implicit path's residual.
@@ -398,27 +447,34 @@ void CentralDifference::advance(double h, double t_new) {
   std::fill(bad_.begin(), bad_.end(), 0);
   tbb::parallel_for(tbb::blocked_range<int>(0, n_, 256), [&](const tbb::blocked_range<int>& r) {
     for (int i = r.begin(); i != r.end(); ++i) {
+      double work = 0;
       for (int c = 0; c < 3; ++c) {
         if (assembler.equation(6 * i + c) >= 0) {
           v_half_(c, i) = keep * st.v_n(c, i) + 0.5 * h * force_(c, i) / sim_.mass_(i);
           st.x(c, i) = st.x_n(c, i) + h * v_half_(c, i);
+          work += 0.25 * h * loads_(c, i) * (st.v_n(c, i) + v_half_(c, i));
         } else {
           st.x(c, i) = st.x_n(c, i); // fixed, or set by the prescribed motion below
         }
       }
+      node_work_[i] = work;
       if (prescribed_r_[i])
         continue;
       const std::array<bool, 3> free{assembler.equation(6 * i + 3) >= 0,
                                      assembler.equation(6 * i + 4) >= 0,
                                      assembler.equation(6 * i + 5) >= 0};
+      const Eigen::Vector3d omega_n = st.Q_n[i] * st.W_n.col(i);
       pi_half_.col(i) = keep * pi_.col(i) + 0.5 * h * moment_.col(i);
       Eigen::Vector3d omega = omega_half_.col(i);
-      if (!midpoint_angular_velocity(st.Q_n[i], sim_.rotary_inertia_.col(i), pi_half_.col(i),
-                                     free, h, omega)) {
+      if (!midpoint_angular_velocity(st.Q_n[i], sim_.rotary_inertia_.col(i), pi_half_.col(i), free,
+                                     h, omega)) {
         bad_[i] = 1;
         continue;
       }
       omega_half_.col(i) = omega;
+      for (int c = 0; c < 3; ++c)
+        if (free[c])
+          node_work_[i] += 0.25 * h * loads_(3 + c, i) * (omega_n(c) + omega(c));
       const Eigen::Vector3d phi = h * omega;
       if (phi.norm() > 1.0) {
         bad_[i] = 2;
@@ -427,6 +483,7 @@ void CentralDifference::advance(double h, double t_new) {
       st.alpha.col(i) = rodrigues_of_vector(phi);
     }
   });
+  collect_kick_work();
   for (int i = 0; i < n_; ++i)
     if (bad_[i])
       fail(fmt::format("node {} {}", sim_.model_.node_label(i),
@@ -444,9 +501,9 @@ void CentralDifference::advance(double h, double t_new) {
   }
   if (cm > 0)
     for (int i = 0; i < n_; ++i)
-      sim_.damping_work_ += h * cm *
-                            (sim_.mass_(i) * v_half_.col(i).squaredNorm() +
-                             omega_half_.col(i).dot(pi_half_.col(i)));
+      sim_.damping_work_ +=
+          h * cm *
+          (sim_.mass_(i) * v_half_.col(i).squaredNorm() + omega_half_.col(i).dot(pi_half_.col(i)));
 
   // Contact at the new positions, then the increment is committed: Gauss-point histories with the
   // rotation increments, triads, the work of the loads.
@@ -460,7 +517,7 @@ void CentralDifference::advance(double h, double t_new) {
     for (int c = 0; c < 6; ++c)
       if (assembler.equation(6 * i + c) < 0)
         work += 0.5 * sim_.reactions_(c, i) * increment_(c, i);
-  sim_.commit(step_, h, t_new);
+  commit(t_new);
   time_ = t_new;
   evaluate_forces(t_new, h);
   for (int i = 0; i < n_; ++i)
@@ -469,15 +526,17 @@ void CentralDifference::advance(double h, double t_new) {
         work += 0.5 * sim_.reactions_(c, i) * increment_(c, i);
   sim_.prescribed_work_ += work;
 
-  // Second half kick (commit left the velocities at zero).
+  // Second half kick.
   const double damp = 1 + 0.5 * cm * h;
   tbb::parallel_for(tbb::blocked_range<int>(0, n_, 256), [&](const tbb::blocked_range<int>& r) {
     for (int i = r.begin(); i != r.end(); ++i) {
       const double m = sim_.mass_(i);
+      node_work_[i] = 0;
       for (int c = 0; c < 3; ++c) {
         if (assembler.equation(6 * i + c) >= 0) {
           st.v_n(c, i) = (v_half_(c, i) + 0.5 * h * force_(c, i) / m) / damp;
           st.a_n(c, i) = force_(c, i) / m;
+          node_work_[i] += 0.25 * h * loads_(c, i) * (v_half_(c, i) + st.v_n(c, i));
         } else if (const TimeTable* table = prescribed_u_[3 * i + c]) {
           st.v_n(c, i) = table_rate(*table, t_new, h);
           st.a_n(c, i) = table_second_rate(*table, t_new, h);
@@ -496,8 +555,15 @@ void CentralDifference::advance(double h, double t_new) {
       const Eigen::Vector3d pi = (pi_half_.col(i) + 0.5 * h * moment_.col(i)) / damp;
       const Eigen::Vector3d omega = solve_free(Q, J, pi, free);
       st.W_n.col(i) = Q.transpose() * omega;
+      for (int c = 0; c < 3; ++c)
+        if (free[c])
+          node_work_[i] += 0.25 * h * loads_(3 + c, i) * (omega_half_(c, i) + omega(c));
       if (free[0] && free[1] && free[2]) {
         pi_.col(i) = pi; // kept as integrated: the angular momentum balance stays exact
+        // Euler's equations for the material angular acceleration (for a following Newmark step).
+        const Eigen::Vector3d W = st.W_n.col(i);
+        st.A_n.col(i) =
+            (Q.transpose() * moment_.col(i) - W.cross(J.cwiseProduct(W))).cwiseQuotient(J);
       } else {
         pi_.col(i) = Q * J.cwiseProduct(st.W_n.col(i));
         for (int c = 0; c < 3; ++c)
@@ -506,6 +572,36 @@ void CentralDifference::advance(double h, double t_new) {
       }
     }
   });
+  collect_kick_work();
+}
+
+void CentralDifference::commit(double t_new) {
+  State& st = sim_.state_;
+  const Assembler& assembler = *sim_.assembler_;
+  // Work of the loads by the trapezoidal rule, with the loads before the triads are updated.
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> load = sim_.external_loads(t_new);
+  for (int i = 0; i < n_; ++i)
+    sim_.external_work_ += 0.5 * (load.col(i) + sim_.load_n_.col(i)).dot(increment_.col(i));
+  const int ne = static_cast<int>(st.gauss.size());
+  tbb::parallel_for(tbb::blocked_range<int>(0, ne, 32), [&](const tbb::blocked_range<int>& r) {
+    for (int e = r.begin(); e != r.end(); ++e)
+      st.gauss[e] = beam_committed_history(assembler.references()[e], st.gauss[e],
+                                           assembler.nodal_values(st, e));
+  });
+  tbb::parallel_for(tbb::blocked_range<int>(0, n_, 256), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i != r.end(); ++i) {
+      st.Q_n[i] = polished(rodrigues_rotation<double>(st.alpha.col(i)) * st.Q_n[i]);
+      st.rotation_n.col(i) =
+          unwrap_rotation(st.Q_n[i] * sim_.Q0_[i].transpose(), st.rotation_n.col(i));
+    }
+  });
+  if (sim_.contact_)
+    sim_.contact_->commit();
+  st.x_n = st.x;
+  st.alpha.setZero();
+  st.time = t_new;
+  ++st.increment;
+  sim_.load_n_ = load;
 }
 
 void CentralDifference::run(SimulationObserver* observer) {
@@ -513,9 +609,9 @@ void CentralDifference::run(SimulationObserver* observer) {
   const Assembler& assembler = *sim_.assembler_;
   const double dt = step_.dt_initial;
   if (!(step_.safety_factor > 0))
-    throw std::invalid_argument(fmt::format(
-        "step {} (explicit): expected a safety factor > 0, found {}", index_ + 1,
-        step_.safety_factor));
+    throw std::invalid_argument(
+        fmt::format("step {} (explicit): expected a safety factor > 0, found {}", index_ + 1,
+                    step_.safety_factor));
   if (!(dt > 0))
     throw std::invalid_argument(
         fmt::format("step {} (explicit): expected a time step dt > 0, found {}", index_ + 1, dt));
@@ -578,10 +674,9 @@ void CentralDifference::run(SimulationObserver* observer) {
         "mass scaling (mass_scaling_dt)",
         index_ + 1, dt, status_.stable_dt, step_.safety_factor, status_.critical_dt,
         status_.limited_by,
-        status_.added_mass > 0
-            ? fmt::format(" after mass scaling added {:.4g} kg ({:.3g} %)", status_.added_mass,
-                          status_.added_mass_percent)
-            : std::string()));
+        status_.added_mass > 0 ? fmt::format(" after mass scaling added {:.4g} kg ({:.3g} %)",
+                                             status_.added_mass, status_.added_mass_percent)
+                               : std::string()));
   // A model that deforms or comes into contact may lower the limit: the step then follows it,
   // down to dt_min (at most dt / 1000).
   dt_min_ = std::min(step_.dt_min, 1e-3 * dt);
@@ -597,8 +692,9 @@ void CentralDifference::run(SimulationObserver* observer) {
   sim_.damping_work_ = damping_before;
   supplied_start_ = sim_.kinetic_energy() + sim_.strain_energy() + sim_.contact_energy();
   supplied_max_ = supplied_start_;
-  work_start_ = sim_.external_work_ + sim_.prescribed_work_;
-  sim_.energy_reference_ = supplied_start_ + sim_.damping_work_ - work_start_;
+  prescribed_start_ = sim_.prescribed_work_;
+  sim_.energy_reference_ =
+      supplied_start_ + sim_.damping_work_ - sim_.external_work_ - sim_.prescribed_work_;
   energy_floor_ = sim_.floor_force_ * sim_.min_length_;
 
   const int every = std::max(1, step_.stable_dt_every);
@@ -607,8 +703,8 @@ void CentralDifference::run(SimulationObserver* observer) {
   long count = 0;
   while (time_ < step_.end_time * (1 - 1e-12)) {
     if (sim_.options_.stop_requested && sim_.options_.stop_requested->load())
-      throw Interrupted(fmt::format("interrupted at t = {:.6g} s after increment {}", time_,
-                                    st.increment));
+      throw Interrupted(
+          fmt::format("interrupted at t = {:.6g} s after increment {}", time_, st.increment));
     if (count > 0 && count % every == 0) {
       const ExplicitStatus now = estimate(sim_, step_, scale_, sim_.mass_);
       status_.critical_dt = now.critical_dt;

@@ -78,11 +78,11 @@ struct EnergyBalance {
 
 /// Stability estimate of the explicit path (central_difference.cpp).
 struct ExplicitStatus {
-  double critical_dt = 0; ///< s, 2 / omega_max (less with stiffness damping)
-  double stable_dt = 0;   ///< s, safety_factor * critical_dt
-  std::string limited_by; ///< "element 12", "contact 'name'"
-  double dt = 0;          ///< s, the step in use
-  double added_mass = 0;  ///< kg, by mass scaling
+  double critical_dt = 0;          ///< s, 2 / omega_max (less with stiffness damping)
+  double stable_dt = 0;            ///< s, safety_factor * critical_dt
+  std::string limited_by;          ///< "element 12", "contact 'name'"
+  double dt = 0;                   ///< s, the step in use
+  double added_mass = 0;           ///< kg, by mass scaling
   double added_mass_percent = 0;   ///< of the model's translational mass
   double added_rotary_percent = 0; ///< of the model's rotary inertia (trace)
   long increments = 0;             ///< explicit increments completed
