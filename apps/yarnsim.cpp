@@ -56,7 +56,7 @@ int main(int argc, char** argv) {
   std::string deck;
   std::string output;
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  std::string solver = "lu";
+  std::string solver = "auto";
   bool quiet = false;
   CLI::App* run = app.add_subcommand("run", "Run a model deck (TOML); see docs/input.md");
   run->add_option("deck", deck, "Model deck (.toml)")->required();
@@ -64,8 +64,9 @@ int main(int argc, char** argv) {
                   "Output folder (default: results/<deck name> in the current folder)");
   run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   run->add_option("--linear-solver", solver,
-                  "Sparse direct solver: lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
-      ->check(CLI::IsMember({"lu", "ldlt", "eigen-lu"}));
+                  "Sparse direct solver: auto (default: ldlt unless the model has applied "
+                  "moments), lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt", "eigen-lu"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
 
   std::string study_deck;
@@ -78,8 +79,9 @@ int main(int argc, char** argv) {
   study->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   study
       ->add_option("--linear-solver", solver,
-                   "Sparse direct solver: lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
-      ->check(CLI::IsMember({"lu", "ldlt", "eigen-lu"}));
+                   "Sparse direct solver: auto (default: ldlt unless the model has applied "
+                   "moments), lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt", "eigen-lu"}));
   study->add_flag("--quiet,-q", quiet, "No progress line");
 
   try {

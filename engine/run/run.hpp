@@ -17,7 +17,7 @@ struct RunOptions {
   std::string deck_text;            ///< stored verbatim in the results
   std::string deck_path;
   int threads = 1; ///< recorded in the results (the caller limits TBB)
-  LinearSolverKind linear_solver = LinearSolverKind::LU;
+  LinearSolverKind linear_solver = LinearSolverKind::Auto;
   bool progress = true; ///< progress line on stderr
   const std::atomic<bool>* stop_requested = nullptr;
 };

@@ -18,6 +18,9 @@ class LinearSolverError : public std::runtime_error {
 };
 
 enum class LinearSolverKind {
+  /// LDLTSymmetric unless the model has applied moments (their tangent is far from symmetric),
+  /// then LU: see docs/performance.md for the figures behind the choice.
+  Auto,
   LU,            ///< LU of the full (non-symmetric) tangent, UMFPACK (SuiteSparse)
   LDLTSymmetric, ///< LDL^T of the symmetric part (A + A^T) / 2, Eigen SimplicialLDLT + METIS
   EigenLU        ///< LU of the full tangent, Eigen SparseLU + METIS (for comparison)
@@ -36,7 +39,7 @@ public:
 };
 
 std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind);
-/// "lu", "ldlt" or "eigen-lu".
+/// "auto", "lu", "ldlt" or "eigen-lu".
 LinearSolverKind linear_solver_kind_from(const std::string& name);
 
 } // namespace yarnsim

@@ -61,7 +61,13 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
       }
     }
   assembler_ = std::make_unique<Assembler>(model, constrained);
-  solver_ = make_linear_solver(options.linear_solver);
+  LinearSolverKind kind = options.linear_solver;
+  if (kind == LinearSolverKind::Auto) {
+    const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
+                                     [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
+    kind = moments ? LinearSolverKind::LU : LinearSolverKind::LDLTSymmetric;
+  }
+  solver_ = make_linear_solver(kind);
   if (!model.spline_contacts.empty())
     contact_ = std::make_unique<SplineContactSet>(model);
   solver_name_ = solver_->name();

@@ -89,7 +89,7 @@ struct ExplicitStatus {
 };
 
 struct SimulationOptions {
-  LinearSolverKind linear_solver = LinearSolverKind::LU;
+  LinearSolverKind linear_solver = LinearSolverKind::Auto;
   /// Set from a signal handler; checked between increments.
   const std::atomic<bool>* stop_requested = nullptr;
 };

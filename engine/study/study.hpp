@@ -32,7 +32,7 @@ Study read_study(const std::filesystem::path& file);
 struct StudyOptions {
   std::filesystem::path output_dir;
   int threads = 1;
-  LinearSolverKind linear_solver = LinearSolverKind::LU;
+  LinearSolverKind linear_solver = LinearSolverKind::Auto;
   bool progress = true;
   const std::atomic<bool>* stop_requested = nullptr;
 };
