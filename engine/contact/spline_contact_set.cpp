@@ -76,8 +76,8 @@ std::array<int, 6> SplineContactSet::nodes_of(const Definition& d,
   return {a[i], a[i + 1], a[i + 2], b[j], b[j + 1], b[j + 2]};
 }
 
-std::string SplineContactSet::evaluate(const Eigen::Matrix3Xd& x, bool want_tangent) {
-  work_.clear();
+bool SplineContactSet::update_candidates(const Eigen::Matrix3Xd& x) {
+  bool changed = work_.empty() && candidates_version_ == 0;
   for (std::size_t k = 0; k < definitions_.size(); ++k) {
     Definition& d = *definitions_[k];
     for (std::size_t s = 0; s < d.spline.size(); ++s) {
@@ -88,12 +88,25 @@ std::string SplineContactSet::evaluate(const Eigen::Matrix3Xd& x, bool want_tang
       box.extend(x.col(nodes[i + 2]));
       d.boxes[s] = box;
     }
-    if (d.search->update(d.boxes, d.radius))
-      ++candidates_version_;
-    for (const broadphase::CandidatePair& p : d.search->candidates())
-      work_.push_back({static_cast<int>(k), p, {}});
+    changed = d.search->update(d.boxes, d.radius) || changed;
   }
+  if (!changed)
+    return false;
+  // The work list follows the candidates: rebuilt only when a search changed them.
+  ++candidates_version_;
+  work_.clear();
+  for (std::size_t k = 0; k < definitions_.size(); ++k)
+    for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
+      work_.push_back({static_cast<int>(k), p, {}});
+  return true;
+}
 
+std::string SplineContactSet::evaluate(const Eigen::Matrix3Xd& x, bool want_tangent) {
+  update_candidates(x);
+  return project(x, want_tangent);
+}
+
+std::string SplineContactSet::project(const Eigen::Matrix3Xd& x, bool want_tangent) {
   contact::SplineContactOptions options;
   options.compute_tangent = want_tangent;
   tbb::parallel_for(

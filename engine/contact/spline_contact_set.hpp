@@ -39,6 +39,11 @@ public:
   /// Broad and narrow phase at positions x (3 x n_nodes, m). Returns an empty string, or why
   /// the configuration must be vetoed (a projection of a pair in contact failed or jumped).
   std::string evaluate(const Eigen::Matrix3Xd& x, bool want_tangent);
+  /// Broad phase alone: refits the boxes and searches again when the motion asks for it.
+  /// Returns true when the candidate list changed.
+  bool update_candidates(const Eigen::Matrix3Xd& x);
+  /// Narrow phase alone, over the current candidates, in parallel; returns as evaluate().
+  std::string project(const Eigen::Matrix3Xd& x, bool want_tangent);
 
   /// Changes whenever a broad-phase search changed the candidate list.
   int candidates_version() const { return candidates_version_; }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <fmt/format.h>
 #include <numbers>
+#include <tbb/flow_graph.h>
 
 namespace yarnsim {
 
@@ -127,6 +128,7 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
       state_.gauss[e][g] = GaussState{assembler_->references()[e].Q0[g], Eigen::Vector3d::Zero()};
   reactions_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n);
   load_n_ = external_loads(0.0);
+  graph_ = std::make_unique<IterationGraph>(*this);
 }
 
 Simulation::~Simulation() = default;
@@ -159,6 +161,75 @@ void Simulation::apply_prescribed(double t_new) {
   }
 }
 
+/// The stages of one Newton iteration as a oneTBB flow graph, built once per simulation:
+///
+///   broad phase (+ pattern growth, zeroing) --> narrow phase ----\
+///                                           \-> beam assembly ---+--> contact assembly
+///
+/// The narrow phase and the beam assembly touch disjoint data, so they run side by side, each
+/// with parallel loops inside; the contact assembly waits for both and adds the pairs in sorted
+/// order, so the sums are the same on any thread count.
+struct Simulation::IterationGraph {
+  tbb::flow::graph graph;
+  tbb::flow::continue_node<tbb::flow::continue_msg> broad, narrow, beams, contact_assembly;
+
+  static double seconds_since(std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+
+  explicit IterationGraph(Simulation& s)
+      : broad(graph,
+              [&s](const tbb::flow::continue_msg&) {
+                const auto t0 = std::chrono::steady_clock::now();
+                // New candidate pairs may grow the pattern: before anything is assembled.
+                if (s.contact_ && s.contact_->update_candidates(s.state_.x) &&
+                    s.coupled_candidates_ != s.contact_->candidates_version()) {
+                  s.assembler_->ensure_couplings(s.contact_->couplings());
+                  s.coupled_candidates_ = s.contact_->candidates_version();
+                }
+                s.iteration_.residual->setZero();
+                s.assembler_->zero_matrix();
+                s.stage_times_.contact_search += seconds_since(t0);
+              }),
+        narrow(graph,
+               [&s](const tbb::flow::continue_msg&) {
+                 const auto t0 = std::chrono::steady_clock::now();
+                 if (s.contact_)
+                   s.iteration_.veto = s.contact_->project(s.state_.x, true);
+                 s.stage_times_.contact_search += seconds_since(t0);
+               }),
+        beams(graph,
+              [&s](const tbb::flow::continue_msg&) {
+                const auto t0 = std::chrono::steady_clock::now();
+                Eigen::VectorXd& r = *s.iteration_.residual;
+                s.assembler_->add_beams(s.state_, r, true, s.iteration_.damping);
+                double f = 0, m = 0;
+                for (int i = 0; i < s.state_.n_nodes(); ++i) {
+                  f = std::max(f, r.segment<3>(6 * i).norm());
+                  m = std::max(m, r.segment<3>(6 * i + 3).norm());
+                }
+                s.iteration_.ref_force = f;
+                s.iteration_.ref_moment = m;
+                s.stage_times_.beam_assembly += seconds_since(t0);
+              }),
+        contact_assembly(graph, [&s](const tbb::flow::continue_msg&) {
+          const auto t0 = std::chrono::steady_clock::now();
+          if (s.contact_ && s.iteration_.veto.empty())
+            s.contact_->assemble(*s.iteration_.residual, *s.assembler_, true);
+          s.stage_times_.other_assembly += seconds_since(t0);
+        }) {
+    tbb::flow::make_edge(broad, narrow);
+    tbb::flow::make_edge(broad, beams);
+    tbb::flow::make_edge(narrow, contact_assembly);
+    tbb::flow::make_edge(beams, contact_assembly);
+  }
+
+  void run() {
+    broad.try_put(tbb::flow::continue_msg());
+    graph.wait_for_all();
+  }
+};
+
 std::string Simulation::attempt(const SolutionStep& step, double t_new, double dt,
                                 IncrementReport& report) {
   const int n = state_.n_nodes();
@@ -178,25 +249,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   double last_du = 0, last_da = 0;
   int worst_dof = -1;
   for (int iter = 0; iter <= step.max_iterations; ++iter) {
-    // Contact first: new candidate pairs may grow the pattern before anything is assembled.
-    auto tick = std::chrono::steady_clock::now();
-    auto lap = [&tick](double& total) {
-      const auto now = std::chrono::steady_clock::now();
-      total += std::chrono::duration<double>(now - tick).count();
-      tick = now;
-    };
-    if (contact_) {
-      const std::string veto = contact_->evaluate(state_.x, true);
-      if (!veto.empty())
-        return veto;
-      if (coupled_candidates_ != contact_->candidates_version()) {
-        assembler_->ensure_couplings(contact_->couplings());
-        coupled_candidates_ = contact_->candidates_version();
-      }
-    }
-    lap(stage_times_.contact_search);
-    residual.setZero();
-    assembler_->zero_matrix();
+    // Damping velocities are an input of the beam assembly.
     StiffnessDamping damping;
     if (dynamic && step.rayleigh_stiffness != 0.0) {
       damping_velocity.resize(6 * n);
@@ -212,17 +265,21 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       }
       damping = {step.rayleigh_stiffness, nm.a4, &damping_velocity};
     }
-    assembler_->add_beams(state_, residual, true, damping);
-    double ref_force = 0, ref_moment = 0;
-    for (int i = 0; i < n; ++i) {
-      ref_force = std::max(ref_force, residual.segment<3>(6 * i).norm());
-      ref_moment = std::max(ref_moment, residual.segment<3>(6 * i + 3).norm());
-    }
-    lap(stage_times_.beam_assembly);
-    if (contact_) {
-      contact_->assemble(residual, *assembler_, true);
+    // The iteration's task graph: broad phase -> (narrow phase || beam assembly) -> contact
+    // assembly.
+    iteration_ = {&residual, damping, {}, 0.0, 0.0};
+    graph_->run();
+    if (!iteration_.veto.empty())
+      return iteration_.veto;
+    double ref_force = iteration_.ref_force, ref_moment = iteration_.ref_moment;
+    if (contact_)
       ref_force = std::max(ref_force, contact_->max_force());
-    }
+    auto tick = std::chrono::steady_clock::now();
+    auto lap = [&tick](double& total) {
+      const auto now = std::chrono::steady_clock::now();
+      total += std::chrono::duration<double>(now - tick).count();
+      tick = now;
+    };
 
     // Inertia (lumped) and mass-proportional damping.
     if (dynamic) {

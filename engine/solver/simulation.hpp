@@ -179,8 +179,20 @@ private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
   int total_iterations_ = 0;
   StageTimes stage_times_;
-  int analysed_pattern_ = -1;   ///< pattern version the solver analysed
-  int coupled_candidates_ = -1; ///< contact candidate version the pattern holds
+
+  struct IterationGraph;
+  /// Inputs and outputs of the iteration graph's nodes for the iteration in progress.
+  struct IterationData {
+    Eigen::VectorXd* residual = nullptr; ///< 6 n_nodes
+    StiffnessDamping damping;
+    std::string veto;      ///< why the contact stage vetoes the configuration
+    double ref_force = 0;  ///< largest nodal internal force, N
+    double ref_moment = 0; ///< largest nodal internal moment, N m
+  };
+  IterationData iteration_;
+  std::unique_ptr<IterationGraph> graph_; ///< last: built on the members above
+  int analysed_pattern_ = -1;             ///< pattern version the solver analysed
+  int coupled_candidates_ = -1;           ///< contact candidate version the pattern holds
 };
 
 } // namespace yarnsim
