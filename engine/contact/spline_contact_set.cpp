@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <fmt/format.h>
+#include <limits>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -211,6 +212,14 @@ double SplineContactSet::max_force() const {
     if (w.result.active)
       f = std::max(f, w.result.force);
   return f;
+}
+
+double SplineContactSet::min_gap() const {
+  double g = std::numeric_limits<double>::infinity();
+  for (const Work& w : work_)
+    if (w.result.status == contact::ProjectionStatus::Converged)
+      g = std::min(g, w.result.gap);
+  return g;
 }
 
 double SplineContactSet::potential() const {

@@ -61,7 +61,10 @@ public:
   double max_penetration() const; ///< m, over active pairs (0 if none)
   double max_force() const;       ///< N
   double potential() const;       ///< elastic energy stored in the active pairs, J
-  double total_force() const;     ///< sum of the normal forces of the active pairs, N
+  /// Smallest effective gap (eq. 12) over the pairs whose projection converged in range, m;
+  /// +infinity when there is none. Before loading it is the clearance the contact sees.
+  double min_gap() const;
+  double total_force() const; ///< sum of the normal forces of the active pairs, N
   std::vector<ContactPoint> points() const;
 
 private:

@@ -328,6 +328,11 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
       mesh.node_radius(node) =
           std::max(mesh.node_radius(node), node_radius_of(model.sections[el.section], length));
   }
+  if (sim.spline_contact() && options.progress)
+    fmt::print(stderr,
+               "spline contact: initial clearance {:.6g} mm (smallest effective gap between the "
+               "contact splines before loading)\n",
+               1e3 * sim.initial_contact_clearance());
   output::ResultsFile results(
       options.output_dir, mesh,
       output::RunMetadata{options.deck_text, options.deck_path, kVersion, options.threads});

@@ -129,6 +129,12 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   reactions_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n);
   load_n_ = external_loads(0.0);
   graph_ = std::make_unique<IterationGraph>(*this);
+  if (contact_) {
+    // The clearance each formulation sees before loading (the spline passes inside the
+    // interior nodes, so it differs from the nominal gap between the yarn surfaces).
+    contact_->evaluate(state_.x, false);
+    initial_clearance_ = contact_->min_gap();
+  }
 }
 
 Simulation::~Simulation() = default;
@@ -182,8 +188,9 @@ struct Simulation::IterationGraph {
               [&s](const tbb::flow::continue_msg&) {
                 const auto t0 = std::chrono::steady_clock::now();
                 // New candidate pairs may grow the pattern: before anything is assembled.
-                if (s.contact_ && s.contact_->update_candidates(s.state_.x) &&
-                    s.coupled_candidates_ != s.contact_->candidates_version()) {
+                if (s.contact_)
+                  s.contact_->update_candidates(s.state_.x);
+                if (s.contact_ && s.coupled_candidates_ != s.contact_->candidates_version()) {
                   s.assembler_->ensure_couplings(s.contact_->couplings());
                   s.coupled_candidates_ = s.contact_->candidates_version();
                 }

@@ -11,6 +11,7 @@
 #include "engine/state/state.hpp"
 
 #include <atomic>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -119,6 +120,9 @@ public:
   double kinetic_energy() const;
   /// Strain energy of the last converged increment, J.
   double strain_energy() const;
+  /// Smallest effective gap of the spline contact in the initial configuration (the clearance
+  /// the formulation sees, which differs from a nominal surface gap), m; NaN without contact.
+  double initial_contact_clearance() const { return initial_clearance_; }
   /// Elastic energy stored in the contacts of the last converged increment, J.
   double contact_energy() const { return contact_ ? contact_->potential() : 0.0; }
   /// Work of the external loads up to the last converged increment (trapezoidal rule), J.
@@ -179,6 +183,7 @@ private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
   int total_iterations_ = 0;
   StageTimes stage_times_;
+  double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();
 
   struct IterationGraph;
   /// Inputs and outputs of the iteration graph's nodes for the iteration in progress.
