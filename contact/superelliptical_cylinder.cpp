@@ -1,0 +1,188 @@
+#include "contact/superelliptical_cylinder.hpp"
+
+#include "engine/math/rotation.hpp"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace yarnsim::contact {
+
+namespace {
+
+void require(bool condition, const char* what, double value) {
+  if (!condition) {
+    std::ostringstream message;
+    message << "super-elliptical cylinder: expected " << what << ", found " << value;
+    throw std::invalid_argument(message.str());
+  }
+}
+
+bool finite(const Eigen::Vector3d& v) {
+  return v.allFinite();
+}
+
+} // namespace
+
+SuperEllipse::SuperEllipse(double a, double b, double m) : a_(a), b_(b), m_(m) {
+  require(std::isfinite(a) && a > 0.0, "a finite semi-axis a > 0 (m)", a);
+  require(std::isfinite(b) && b > 0.0, "a finite semi-axis b > 0 (m)", b);
+  require(std::isfinite(m) && m >= 2.0 && m <= 1000.0, "an exponent 2 <= m <= 1000", m);
+}
+
+SuperEllipse::Point SuperEllipse::point(double theta) const {
+  const double c = std::cos(theta);
+  const double s = std::sin(theta);
+  Point p;
+  if (m_ == 2.0) {
+    p.value << a_ * c, b_ * s;
+    p.first << -a_ * s, b_ * c;
+    p.second << -a_ * c, -b_ * s;
+    return p;
+  }
+  // S = |c|^m + |s|^m, phi = S^(-1/m):
+  //   S'  = m c s (|s|^(m-2) - |c|^(m-2))
+  //   S'' = m (c^2 - s^2)(|s|^(m-2) - |c|^(m-2)) + m (m-2)(c^2 |s|^(m-2) + s^2 |c|^(m-2))
+  //   phi' = -phi S' / (m S),  phi'' = phi / (m S) ((1 + 1/m) S'^2 / S - S'')
+  // All finite for m >= 2 (|.|^(m-2) is continuous there).
+  const double m = m_;
+  const double pc = std::pow(std::abs(c), m - 2.0);
+  const double ps = std::pow(std::abs(s), m - 2.0);
+  const double S = pc * c * c + ps * s * s;
+  const double S1 = m * c * s * (ps - pc);
+  const double S2 = m * (c * c - s * s) * (ps - pc) + m * (m - 2.0) * (c * c * ps + s * s * pc);
+  const double phi = std::pow(S, -1.0 / m);
+  const double phi1 = -phi * S1 / (m * S);
+  const double phi2 = phi / (m * S) * ((1.0 + 1.0 / m) * S1 * S1 / S - S2);
+  const double x0 = phi * c;
+  const double x1 = phi1 * c - phi * s;
+  const double x2 = phi2 * c - 2.0 * phi1 * s - phi * c;
+  const double y0 = phi * s;
+  const double y1 = phi1 * s + phi * c;
+  const double y2 = phi2 * s + 2.0 * phi1 * c - phi * s;
+  p.value << a_ * x0, b_ * y0;
+  p.first << a_ * x1, b_ * y1;
+  p.second << a_ * x2, b_ * y2;
+  return p;
+}
+
+double SuperEllipse::support(const Eigen::Vector2d& n) const {
+  if (m_ == 2.0) {
+    return std::sqrt(a_ * a_ * n.x() * n.x() + b_ * b_ * n.y() * n.y());
+  }
+  // Dual norm of the l_m norm of (x/a, y/b): the l_q norm of (a n1, b n2), 1/m + 1/q = 1.
+  const double q = m_ / (m_ - 1.0);
+  return std::pow(std::pow(std::abs(a_ * n.x()), q) + std::pow(std::abs(b_ * n.y()), q), 1.0 / q);
+}
+
+double SuperEllipse::normal_angle(const Eigen::Vector2d& n) const {
+  // The gradient of |X|^m + |Y|^m (X = x/a, Y = y/b) is parallel to n where
+  // |X|^(m-1) ~ a |n1| and |Y|^(m-1) ~ b |n2|, with the signs of n; theta = atan2(Y, X) since
+  // (X, Y) = phi (cos theta, sin theta).
+  if (m_ == 2.0) {
+    return std::atan2(b_ * n.y(), a_ * n.x());
+  }
+  const double e = 1.0 / (m_ - 1.0);
+  const double X = std::copysign(std::pow(a_ * std::abs(n.x()), e), n.x());
+  const double Y = std::copysign(std::pow(b_ * std::abs(n.y()), e), n.y());
+  return std::atan2(Y, X);
+}
+
+double SuperEllipse::radius_of_curvature(double theta) const {
+  const Point p = point(theta);
+  const double speed = p.first.norm();
+  const double cross = std::abs(p.first.x() * p.second.y() - p.first.y() * p.second.x());
+  return cross > 0.0 ? speed * speed * speed / cross : std::numeric_limits<double>::infinity();
+}
+
+namespace {
+
+void require_finite(const SurfaceNode& n, const char* which) {
+  if (!finite(n.position) || !finite(n.rotation_increment) || !n.converged_rotation.allFinite()) {
+    std::ostringstream message;
+    message << "super-elliptical cylinder: expected finite data at " << which << ", found position "
+            << n.position.transpose() << ", rotation increment "
+            << n.rotation_increment.transpose();
+    throw std::invalid_argument(message.str());
+  }
+}
+
+} // namespace
+
+SuperEllipticalCylinder::SuperEllipticalCylinder(const SurfaceNode& node_A,
+                                                 const SurfaceNode& node_B,
+                                                 const SuperEllipse& section, bool closes_end,
+                                                 const SurfaceNode* previous)
+    : nodes_{node_A, node_B}, section_(section), closes_end_(closes_end) {
+  for (int k = 0; k < 2; ++k) {
+    const SurfaceNode& n = nodes_[k];
+    require_finite(n, k == 0 ? "node A" : "node B");
+    rotation_[k] = rodrigues_rotation<double>(n.rotation_increment) * n.converged_rotation;
+    xi_[k] = rodrigues_xi<double>(n.rotation_increment);
+  }
+  if (previous != nullptr) {
+    require_finite(*previous, "the previous element's first node");
+    has_previous_ = true;
+    previous_position_ = previous->position;
+    previous_rotation_ =
+        rodrigues_rotation<double>(previous->rotation_increment) * previous->converged_rotation;
+  }
+}
+
+Eigen::Vector3d SuperEllipticalCylinder::previous_d_zeta(double theta) const {
+  if (!has_previous_) {
+    return Eigen::Vector3d::Zero();
+  }
+  const Eigen::Vector2d s = section_.point(theta).value;
+  const Eigen::Matrix3d dq = rotation_[0] - previous_rotation_;
+  return 0.5 * (nodes_[0].position - previous_position_ + s.x() * dq.col(0) + s.y() * dq.col(1));
+}
+
+Eigen::Vector3d SuperEllipticalCylinder::axis_point(double zeta) const {
+  return 0.5 * (1.0 - zeta) * nodes_[0].position + 0.5 * (1.0 + zeta) * nodes_[1].position;
+}
+
+Eigen::Vector3d SuperEllipticalCylinder::point(double zeta, double theta) const {
+  const Eigen::Vector2d s = section_.point(theta).value;
+  const double n0 = 0.5 * (1.0 - zeta);
+  const double n1 = 0.5 * (1.0 + zeta);
+  return n0 * (nodes_[0].position + s.x() * rotation_[0].col(0) + s.y() * rotation_[0].col(1)) +
+         n1 * (nodes_[1].position + s.x() * rotation_[1].col(0) + s.y() * rotation_[1].col(1));
+}
+
+SuperEllipticalCylinder::Point SuperEllipticalCylinder::evaluate(double zeta, double theta) const {
+  const SuperEllipse::Point s = section_.point(theta);
+  Point p;
+  p.shape[0] = 0.5 * (1.0 - zeta);
+  p.shape[1] = 0.5 * (1.0 + zeta);
+  p.section = s.value;
+  p.section_dt = s.first;
+  Eigen::Vector3d ddv[2];
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Matrix3d& q = rotation_[k];
+    p.v[k] = s.value.x() * q.col(0) + s.value.y() * q.col(1);
+    p.dv[k] = s.first.x() * q.col(0) + s.first.y() * q.col(1);
+    ddv[k] = s.second.x() * q.col(0) + s.second.y() * q.col(1);
+  }
+  const Eigen::Vector3d& x0 = nodes_[0].position;
+  const Eigen::Vector3d& x1 = nodes_[1].position;
+  p.x = p.shape[0] * (x0 + p.v[0]) + p.shape[1] * (x1 + p.v[1]);
+  p.d_zeta = 0.5 * ((x1 + p.v[1]) - (x0 + p.v[0]));
+  p.d_theta = p.shape[0] * p.dv[0] + p.shape[1] * p.dv[1];
+  p.d_zeta_theta = 0.5 * (p.dv[1] - p.dv[0]);
+  p.d_theta_theta = p.shape[0] * ddv[0] + p.shape[1] * ddv[1];
+  return p;
+}
+
+Eigen::Vector3d SuperEllipticalCylinder::outward_normal(const Point& p) const {
+  Eigen::Vector3d n = p.d_theta.cross(p.d_zeta);
+  const double length = n.norm();
+  if (!(length > 0.0)) {
+    return Eigen::Vector3d::Zero();
+  }
+  const Eigen::Vector3d radial = p.shape[0] * p.v[0] + p.shape[1] * p.v[1];
+  return (n.dot(radial) < 0.0 ? -1.0 : 1.0) / length * n;
+}
+
+} // namespace yarnsim::contact
