@@ -1,7 +1,7 @@
 // Beam element and Newton-iteration benchmarks (issue "A runnable engine"):
 //   BM_BeamResidualTangent, BM_BeamResidual: ns per element on one core;
-//   BM_NewtonIteration/<threads>/<solver>: one Newton iteration (assembly, factorisation, solve) on a
-//   10 000-element model: 100 parallel clamped-clamped beams of 100 elements, sagging under load.
+//   BM_NewtonIteration/<threads>/<solver>: one Newton iteration (assembly, factorisation, solve) on
+//   a 10 000-element model: 100 parallel clamped-clamped beams of 100 elements, sagging under load.
 #include "engine/assembly/assembler.hpp"
 #include "engine/beam/beam_element.hpp"
 #include "engine/math/rotation.hpp"
@@ -124,7 +124,7 @@ void BM_NewtonIteration(benchmark::State& state) {
       s.gauss[e][g] = {as.references()[e].Q0[g], Eigen::Vector3d::Zero()};
   // range(1): 0 = LDLT of the symmetric part (what 'auto' picks here), 1 = UMFPACK LU.
   auto solver = make_linear_solver(state.range(1) == 0 ? LinearSolverKind::LDLTSymmetric
-                                                        : LinearSolverKind::LU);
+                                                       : LinearSolverKind::LU);
   Eigen::VectorXd r(6 * n), rhs(as.n_equations());
   solver->analyze(as.matrix());
   double t_asm = 0, t_fact = 0, t_solve = 0;

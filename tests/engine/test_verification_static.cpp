@@ -58,8 +58,7 @@ TEST(VerificationStatic, TenTurnsBringTheTipBackToTheClamp) {
   sim.run();
   const Eigen::Vector3d tip = sim.state().x_n.col(m.nodes.size() - 1);
   std::printf("ten turns: tip %.2e L from the clamp, rotation %.9f rad (20 pi = %.9f)\n",
-              tip.norm() / L, sim.state().rotation_n(2, m.nodes.size() - 1),
-              20 * std::numbers::pi);
+              tip.norm() / L, sim.state().rotation_n(2, m.nodes.size() - 1), 20 * std::numbers::pi);
   EXPECT_LT(tip.norm() / L, 1e-6) << "tip at " << tip.transpose();
   EXPECT_NEAR(sim.state().rotation_n(2, m.nodes.size() - 1), 20 * std::numbers::pi, 1e-6);
 }

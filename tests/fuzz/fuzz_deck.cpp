@@ -22,8 +22,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const yarnsim::InputError&) {
     // Expected for bad input.
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "read_deck_string threw %s instead of InputError: %s\n",
-                 typeid(e).name(), e.what());
+    std::fprintf(stderr, "read_deck_string threw %s instead of InputError: %s\n", typeid(e).name(),
+                 e.what());
     std::abort();
   }
   return 0;

@@ -30,8 +30,9 @@ void read(std::string_view text, bool rebuild_weaves) {
   } catch (const yarnsim::InputError&) {
     // Expected for bad input.
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "read_texgen_string (rebuild_weaves = %d) threw %s instead of "
-                         "InputError: %s\n",
+    std::fprintf(stderr,
+                 "read_texgen_string (rebuild_weaves = %d) threw %s instead of "
+                 "InputError: %s\n",
                  int(rebuild_weaves), typeid(e).name(), e.what());
     std::abort();
   }
