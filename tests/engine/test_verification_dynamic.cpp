@@ -2,6 +2,7 @@
 // vibration, and the free-flying beam's momenta and energy after the load.
 #include "beam_models.hpp"
 #include "engine/solver/simulation.hpp"
+#include "signal_analysis.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -11,55 +12,8 @@
 namespace yarnsim {
 namespace {
 
-struct TipRecorder : SimulationObserver {
-  int node;
-  std::vector<double> t, y;
-  explicit TipRecorder(int n) : node(n) {}
-  void on_increment(const Simulation& s, const IncrementReport& r) override {
-    t.push_back(r.time);
-    y.push_back(s.state().x_n(1, node));
-  }
-};
-
-/// Frequency (rad/s) of the largest peak of the Hann-windowed spectrum of a uniformly sampled
-/// signal within [lo, hi], refined by golden-section search on |X(omega)|.
-double spectral_peak(const std::vector<double>& t, const std::vector<double>& y, double lo,
-                     double hi) {
-  const std::size_t n = y.size();
-  double mean = 0;
-  for (double v : y)
-    mean += v / n;
-  auto power = [&](double w) {
-    double re = 0, im = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-      const double hann = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * k / (n - 1));
-      re += hann * (y[k] - mean) * std::cos(w * t[k]);
-      im += hann * (y[k] - mean) * std::sin(w * t[k]);
-    }
-    return re * re + im * im;
-  };
-  // Coarse scan, then golden section around the best sample.
-  double best = lo, best_p = -1;
-  const int samples = 400;
-  for (int i = 0; i <= samples; ++i) {
-    const double w = lo + (hi - lo) * i / samples;
-    const double p = power(w);
-    if (p > best_p) {
-      best_p = p;
-      best = w;
-    }
-  }
-  double a = best - (hi - lo) / samples, b = best + (hi - lo) / samples;
-  const double g = (std::sqrt(5.0) - 1) / 2;
-  for (int it = 0; it < 60; ++it) {
-    const double c = b - g * (b - a), d = a + g * (b - a);
-    if (power(c) > power(d))
-      b = d;
-    else
-      a = c;
-  }
-  return 0.5 * (a + b);
-}
+using test::spectral_peak;
+using test::TipRecorder;
 
 TEST(VerificationDynamic, CantileverFrequenciesFromAFreeVibration) {
   // Slender cantilever: EI = 1, rho A = 1, L = 1, shear and axial stiff, no rotary inertia, so the
