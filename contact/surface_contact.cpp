@@ -31,7 +31,6 @@ using Eigen::Vector3d;
 using Vec4 = Eigen::Vector4d;
 using Mat4 = Eigen::Matrix4d;
 using Vec12 = Eigen::Matrix<double, 12, 1>;
-using Mat12 = Eigen::Matrix<double, 12, 12>;
 using Vec24 = Eigen::Matrix<double, 24, 1>;
 using Mat24 = Eigen::Matrix<double, 24, 24>;
 using Mat3x24 = Eigen::Matrix<double, 3, 24>;
@@ -310,55 +309,70 @@ Solve newton(const Cylinder& A, const Cylinder& B, Vec4 c, const Mode& mode,
 // doubles and once for a second-order forward-mode number that carries the gradient and Hessian
 // with respect to those 12 coordinates.
 
-/// A value with its gradient and Hessian with respect to 12 variables.
+/// A value with its gradient and (if `Second`) its Hessian with respect to 12 variables.
+template <bool Second>
 struct Jet {
+  static constexpr int kH = Second ? 12 : 0;
   double v = 0.0;
   Vec12 g = Vec12::Zero();
-  Mat12 h = Mat12::Zero();
+  Eigen::Matrix<double, kH, kH> h = Eigen::Matrix<double, kH, kH>::Zero();
   Jet() = default;
   Jet(double value) : v(value) {} // NOLINT: constants mix with jets in the templates
 };
 
-Jet operator+(const Jet& a, const Jet& b) {
-  Jet r;
+template <bool S>
+Jet<S> operator+(const Jet<S>& a, const Jet<S>& b) {
+  Jet<S> r;
   r.v = a.v + b.v;
   r.g = a.g + b.g;
-  r.h = a.h + b.h;
+  if constexpr (S) {
+    r.h = a.h + b.h;
+  }
   return r;
 }
 
-Jet operator-(const Jet& a, const Jet& b) {
-  Jet r;
+template <bool S>
+Jet<S> operator-(const Jet<S>& a, const Jet<S>& b) {
+  Jet<S> r;
   r.v = a.v - b.v;
   r.g = a.g - b.g;
-  r.h = a.h - b.h;
+  if constexpr (S) {
+    r.h = a.h - b.h;
+  }
   return r;
 }
 
-Jet operator*(const Jet& a, const Jet& b) {
-  Jet r;
+template <bool S>
+Jet<S> operator*(const Jet<S>& a, const Jet<S>& b) {
+  Jet<S> r;
   r.v = a.v * b.v;
   r.g = a.v * b.g + b.v * a.g;
-  r.h = a.v * b.h + b.v * a.h;
-  r.h.noalias() += a.g * b.g.transpose();
-  r.h.noalias() += b.g * a.g.transpose();
+  if constexpr (S) {
+    r.h = a.v * b.h + b.v * a.h;
+    r.h.noalias() += a.g * b.g.transpose();
+    r.h.noalias() += b.g * a.g.transpose();
+  }
   return r;
 }
 
-Jet operator/(const Jet& a, const Jet& b) {
-  Jet inv;
+template <bool S>
+Jet<S> operator/(const Jet<S>& a, const Jet<S>& b) {
+  Jet<S> inv;
   const double i1 = 1.0 / b.v;
   inv.v = i1;
   inv.g = -i1 * i1 * b.g;
-  inv.h = -i1 * i1 * b.h;
-  inv.h.noalias() += (2.0 * i1 * i1 * i1) * b.g * b.g.transpose();
+  if constexpr (S) {
+    inv.h = -i1 * i1 * b.h;
+    inv.h.noalias() += (2.0 * i1 * i1 * i1) * b.g * b.g.transpose();
+  }
   return a * inv;
 }
 
 double value(double x) {
   return x;
 }
-double value(const Jet& x) {
+template <bool S>
+double value(const Jet<S>& x) {
   return x.v;
 }
 
@@ -426,7 +440,7 @@ void end_positions(const Cylinder& A, const Cylinder& B, V3<T> (&p)[4]) {
   for (int q = 0; q < 4; ++q) {
     for (int i = 0; i < 3; ++i) {
       p[q].x[i] = T((*x[q])(i));
-      if constexpr (std::is_same_v<T, Jet>) {
+      if constexpr (!std::is_same_v<T, double>) {
         p[q].x[i].g(3 * q + i) = 1.0;
       }
     }
@@ -467,20 +481,11 @@ struct FixedDerivatives {
   Mat24 hess[4];
 };
 
-void fixed_derivatives(const Cylinder& A, const Cylinder& B, const Mode& mode,
-                       FixedDerivatives& out, bool with_hessian) {
-  if (is_ridge(mode.degeneration)) {
-    for (int i = 0; i < 4; i += 2) {
-      out.grad[i].setZero(); // a constant: zeta = -1
-      if (with_hessian) {
-        out.hess[i].setZero();
-      }
-    }
-    return;
-  }
-  V3<Jet> p[4];
+template <bool Second>
+void fixed_jets(const Cylinder& A, const Cylinder& B, const Mode& mode, FixedDerivatives& out) {
+  V3<Jet<Second>> p[4];
   end_positions(A, B, p);
-  Jet z[2];
+  Jet<Second> z[2];
   if (mode.degeneration == SurfaceDegeneration::Parallel) {
     z[0] = overlap_midpoint(p);
   } else {
@@ -496,7 +501,7 @@ void fixed_derivatives(const Cylinder& A, const Cylinder& B, const Mode& mode,
     for (int j = 0; j < 12; ++j) {
       grad(translation_dof(j)) = z[n].g(j);
     }
-    if (with_hessian) {
+    if constexpr (Second) {
       Mat24& hess = out.hess[i];
       hess.setZero();
       for (int j = 0; j < 12; ++j) {
@@ -505,6 +510,24 @@ void fixed_derivatives(const Cylinder& A, const Cylinder& B, const Mode& mode,
         }
       }
     }
+  }
+}
+
+void fixed_derivatives(const Cylinder& A, const Cylinder& B, const Mode& mode,
+                       FixedDerivatives& out, bool with_hessian) {
+  if (is_ridge(mode.degeneration)) {
+    for (int i = 0; i < 4; i += 2) {
+      out.grad[i].setZero(); // a constant: zeta = -1
+      if (with_hessian) {
+        out.hess[i].setZero();
+      }
+    }
+    return;
+  }
+  if (with_hessian) {
+    fixed_jets<true>(A, B, mode, out);
+  } else {
+    fixed_jets<false>(A, B, mode, out);
   }
 }
 
