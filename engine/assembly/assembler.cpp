@@ -232,4 +232,29 @@ void Assembler::add_translation_block(const std::array<int, 6>& nodes,
     }
 }
 
+void Assembler::add_surface_pair_block(const std::array<int, 4>& nodes,
+                                       const Eigen::Matrix<double, 24, 24>& block) {
+  // Global DOF of kernel index k: surface k / 12, then x_first, x_last, alpha_first, alpha_last.
+  std::array<int, 24> dof;
+  for (int k = 0; k < 24; ++k) {
+    const int X = k / 12, r = k % 12;
+    const int node = nodes[2 * X + (r % 6) / 3];
+    dof[k] = 6 * node + (r < 6 ? 0 : 3) + r % 3;
+  }
+  double* values = matrix_.valuePtr();
+  for (int j = 0; j < 24; ++j) {
+    const int col = equation_[dof[j]];
+    if (col < 0)
+      continue;
+    for (int i = 0; i < 24; ++i) {
+      const int row = equation_[dof[i]];
+      if (row < 0)
+        continue;
+      const int s = slot_of(matrix_, row, col);
+      assert(s >= 0 && "contact coupling missing from the pattern");
+      values[s] += block(i, j);
+    }
+  }
+}
+
 } // namespace yarnsim

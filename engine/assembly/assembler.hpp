@@ -63,6 +63,13 @@ public:
   void add_translation_block(const std::array<int, 6>& nodes,
                              const Eigen::Matrix<double, 18, 18>& block);
 
+  /// Adds a surface contact pair's 24 x 24 tangent over the translations and rotations of its
+  /// four end nodes, nodes = (A first, A last, B first, B last), in the kernel's order per surface:
+  /// x_first, x_last, alpha_first, alpha_last (contact/surface_contact.hpp). The pattern must hold
+  /// the coupling (ensure_couplings).
+  void add_surface_pair_block(const std::array<int, 4>& nodes,
+                              const Eigen::Matrix<double, 24, 24>& block);
+
 private:
   void build_pattern();
 

@@ -21,9 +21,7 @@ struct SplineContactSet::Definition {
   std::vector<Eigen::AlignedBox3d> boxes;
 };
 
-namespace {
-
-std::shared_ptr<const contact::InterfaceLaw> make_law(const InterfaceLawParameters& p) {
+std::shared_ptr<const contact::InterfaceLaw> make_interface_law(const InterfaceLawParameters& p) {
   std::shared_ptr<const contact::InterfaceLaw> law;
   if (p.exponent == 1.0)
     law = std::make_shared<contact::LinearPenalty>(p.penalty);
@@ -33,8 +31,6 @@ std::shared_ptr<const contact::InterfaceLaw> make_law(const InterfaceLawParamete
     law = std::make_shared<contact::DampedLaw>(law, p.damping);
   return law;
 }
-
-} // namespace
 
 SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
   for (const Spline& s : model.splines)
@@ -61,7 +57,7 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
     options.same_curve_skip = 1;
     options.self_contact = def.self_contact;
     d->search = std::make_unique<broadphase::CandidateSearch>(std::move(info), groups, options);
-    d->law = make_law(def.law);
+    d->law = make_interface_law(def.law);
     d->boxes.resize(d->spline.size());
     definitions_.push_back(std::move(d));
   }
@@ -77,7 +73,8 @@ std::array<int, 6> SplineContactSet::nodes_of(const Definition& d,
   return {a[i], a[i + 1], a[i + 2], b[j], b[j + 1], b[j + 2]};
 }
 
-bool SplineContactSet::update_candidates(const Eigen::Matrix3Xd& x) {
+bool SplineContactSet::update_candidates(const State& state) {
+  const Eigen::Matrix3Xd& x = state.x;
   bool changed = work_.empty() && candidates_version_ == 0;
   for (std::size_t k = 0; k < definitions_.size(); ++k) {
     Definition& d = *definitions_[k];
@@ -102,12 +99,8 @@ bool SplineContactSet::update_candidates(const Eigen::Matrix3Xd& x) {
   return true;
 }
 
-std::string SplineContactSet::evaluate(const Eigen::Matrix3Xd& x, bool want_tangent) {
-  update_candidates(x);
-  return project(x, want_tangent);
-}
-
-std::string SplineContactSet::project(const Eigen::Matrix3Xd& x, bool want_tangent) {
+std::string SplineContactSet::project(const State& state, bool want_tangent) {
+  const Eigen::Matrix3Xd& x = state.x;
   contact::SplineContactOptions options;
   options.compute_tangent = want_tangent;
   tbb::parallel_for(
@@ -134,6 +127,22 @@ std::string SplineContactSet::project(const Eigen::Matrix3Xd& x, bool want_tange
                                   d.radius[item.pair.second], start, *d.law, item.result, options);
         }
       });
+
+  summary_ = {};
+  summary_.candidates = static_cast<int>(work_.size());
+  summary_.min_gap = std::numeric_limits<double>::infinity();
+  for (const Work& w : work_) {
+    const auto& r = w.result;
+    if (r.status == contact::ProjectionStatus::Converged)
+      summary_.min_gap = std::min(summary_.min_gap, r.gap);
+    if (!r.active)
+      continue;
+    ++summary_.active;
+    summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
+    summary_.max_force = std::max(summary_.max_force, r.force);
+    summary_.potential += r.potential;
+    summary_.total_force += r.force;
+  }
 
   // Veto: a pair in contact at the last converged increment whose projection failed or jumped.
   for (const Work& item : work_) {
@@ -187,55 +196,6 @@ void SplineContactSet::commit() {
     next[Key{item.definition, item.pair.first, item.pair.second}] = {r.xi_A, r.xi_B, r.active};
   }
   committed_ = std::move(next);
-}
-
-int SplineContactSet::candidates() const {
-  return static_cast<int>(work_.size());
-}
-
-int SplineContactSet::active() const {
-  return static_cast<int>(
-      std::count_if(work_.begin(), work_.end(), [](const Work& w) { return w.result.active; }));
-}
-
-double SplineContactSet::max_penetration() const {
-  double p = 0;
-  for (const Work& w : work_)
-    if (w.result.active)
-      p = std::max(p, w.result.penetration);
-  return p;
-}
-
-double SplineContactSet::max_force() const {
-  double f = 0;
-  for (const Work& w : work_)
-    if (w.result.active)
-      f = std::max(f, w.result.force);
-  return f;
-}
-
-double SplineContactSet::min_gap() const {
-  double g = std::numeric_limits<double>::infinity();
-  for (const Work& w : work_)
-    if (w.result.status == contact::ProjectionStatus::Converged)
-      g = std::min(g, w.result.gap);
-  return g;
-}
-
-double SplineContactSet::potential() const {
-  double u = 0;
-  for (const Work& w : work_)
-    if (w.result.active)
-      u += w.result.potential;
-  return u;
-}
-
-double SplineContactSet::total_force() const {
-  double f = 0;
-  for (const Work& w : work_)
-    if (w.result.active)
-      f += w.result.force;
-  return f;
 }
 
 std::vector<ContactPoint> SplineContactSet::points() const {

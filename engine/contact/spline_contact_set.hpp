@@ -1,14 +1,13 @@
 #pragma once
-// The engine's spline contact stage for one Newton iteration: broad phase (candidate segment
-// pairs from the FCL-backed search, kept across iterations) -> narrow phase (closest-point
-// projections of all candidates in parallel, warm-started from the last converged increment) ->
-// assembly of the active pairs in sorted order, so the sums do not depend on the thread count.
+// The beam-to-beam spline contact stage (formulation.md §5): candidate segment pairs of the C1
+// quadratic contact splines from the FCL-backed search, closest-point projections in parallel,
+// assembly of the active pairs' 18 x 18 translational blocks in sorted order.
 
 #include "broadphase/candidate_search.hpp"
 #include "contact/interface_law.hpp"
 #include "contact/spline_contact.hpp"
 #include "contact/spline_curve.hpp"
-#include "engine/model/model.hpp"
+#include "engine/contact/contact_set.hpp"
 
 #include <Eigen/Core>
 #include <array>
@@ -19,53 +18,27 @@
 
 namespace yarnsim {
 
-class Assembler;
+/// Normal law of a contact definition (linear, power, optionally damped).
+std::shared_ptr<const contact::InterfaceLaw> make_interface_law(const InterfaceLawParameters& p);
 
-/// An active contact point, for output.
-struct ContactPoint {
-  Eigen::Vector3d position; ///< midpoint of the two contact points, m
-  Eigen::Vector3d normal;   ///< from B to A
-  double gap = 0;           ///< effective gap (eq. 12), m; negative: penetration
-  double force = 0;         ///< normal force, N
-};
-
-class SplineContactSet {
+class SplineContactSet final : public ContactSet {
 public:
   explicit SplineContactSet(const Model& model);
-  ~SplineContactSet();
+  ~SplineContactSet() override;
 
   bool empty() const { return definitions_.empty(); }
 
-  /// Broad and narrow phase at positions x (3 x n_nodes, m). Returns an empty string, or why
-  /// the configuration must be vetoed (a projection of a pair in contact failed or jumped).
-  std::string evaluate(const Eigen::Matrix3Xd& x, bool want_tangent);
-  /// Broad phase alone: refits the boxes and searches again when the motion asks for it.
-  /// Returns true when the candidate list changed.
-  bool update_candidates(const Eigen::Matrix3Xd& x);
-  /// Narrow phase alone, over the current candidates, in parallel; returns as evaluate().
-  std::string project(const Eigen::Matrix3Xd& x, bool want_tangent);
-
-  /// Changes whenever a broad-phase search changed the candidate list.
-  int candidates_version() const { return candidates_version_; }
-  /// Node groups of all current candidate pairs (6 control points each), for the pattern.
-  std::vector<std::array<int, 6>> couplings() const;
-
-  /// Adds the active pairs' residuals (translations) and tangents, in sorted pair order.
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
-
-  /// Accepts the last evaluation as converged: warm starts and active flags for the next one.
-  void commit();
-
-  int candidates() const;
-  int active() const;
-  double max_penetration() const; ///< m, over active pairs (0 if none)
-  double max_force() const;       ///< N
-  double potential() const;       ///< elastic energy stored in the active pairs, J
-  /// Smallest effective gap (eq. 12) over the pairs whose projection converged in range, m;
-  /// +infinity when there is none. Before loading it is the clearance the contact sees.
-  double min_gap() const;
-  double total_force() const; ///< sum of the normal forces of the active pairs, N
-  std::vector<ContactPoint> points() const;
+  bool update_candidates(const State& state) override;
+  std::string project(const State& state, bool want_tangent) override;
+  int candidates_version() const override { return candidates_version_; }
+  /// The 6 control points of each candidate pair.
+  std::vector<std::array<int, 6>> couplings() const override;
+  /// Translations only: the splines' control points carry no rotations.
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
+  void commit() override;
+  /// Gaps are effective gaps (eq. 12).
+  const ContactSummary& summary() const override { return summary_; }
+  std::vector<ContactPoint> points() const override;
 
 private:
   struct Definition;
@@ -88,6 +61,7 @@ private:
   };
   std::map<Key, Committed> committed_;
   int candidates_version_ = 0;
+  ContactSummary summary_;
 };
 
 } // namespace yarnsim

@@ -154,6 +154,28 @@ struct SplineContactDefinition {
   double margin = 0;         ///< m, broad-phase box inflation beyond the radius; 0: the radius
 };
 
+/// A contact surface for the surface-to-surface contact (formulation.md §6, the paper's eqs. 1-3):
+/// on each element of a chain, a super-elliptical cylinder between the element's end nodes,
+/// carried by their positions and rotations, oriented by the section axes (semi-axis a along
+/// axis 1, b along axis 2).
+struct Surface {
+  std::string name;
+  /// Indices into Model::elements in order along the yarn; consecutive elements share a node
+  /// (the last node of one is the first of the next).
+  std::vector<int> elements;
+  double a = 0;        ///< m, semi-axis along section axis 1
+  double b = 0;        ///< m, semi-axis along section axis 2
+  double exponent = 2; ///< super-ellipse exponent m (2: ellipse)
+};
+
+/// Surface-to-surface contact between two groups of surfaces (indices into Model::surfaces).
+struct SurfaceContactDefinition {
+  std::string name;
+  std::vector<int> group_a, group_b;
+  InterfaceLawParameters law;
+  double margin = 0; ///< m, broad-phase box inflation beyond the section; 0: the larger semi-axis
+};
+
 /// A virtual biaxial tension test on a fabric (paper §5): which node sets hold the yarn ends, so
 /// the run can write the force-strain curves (curves.csv). Warp yarns run along x, weft along y.
 struct BiaxialTest {
@@ -180,6 +202,8 @@ struct Model {
   std::vector<Monitor> monitors;
   std::vector<Spline> splines;
   std::vector<SplineContactDefinition> spline_contacts;
+  std::vector<Surface> surfaces;
+  std::vector<SurfaceContactDefinition> surface_contacts;
   std::optional<BiaxialTest> biaxial;
   /// Optional user labels of nodes (deck ids); empty means node i is labelled i + 1.
   std::vector<long> node_labels;

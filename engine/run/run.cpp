@@ -163,7 +163,7 @@ public:
         curves_ = std::make_unique<BiaxialCurves>(model_, options_.output_dir);
       curves_->write(sim, r.time);
     }
-    const SplineContactSet* contact = sim.spline_contact();
+    const ContactStage* contact = sim.contact();
     if (contact) {
       if (!contact_csv_)
         contact_csv_ = std::make_unique<output::CsvWriter>(
@@ -213,7 +213,7 @@ public:
       out.reactions = sim.reactions();
       out.section_resultants = sim.section_resultants();
       out.scalars = {{"iterations", double(r.iterations)}, {"dt", r.dt}};
-      if (const SplineContactSet* c = sim.spline_contact()) {
+      if (const ContactStage* c = sim.contact()) {
         const std::vector<ContactPoint> points = c->points();
         const int np = static_cast<int>(points.size());
         out.contacts.position.resize(3, np);
@@ -328,11 +328,12 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
       mesh.node_radius(node) =
           std::max(mesh.node_radius(node), node_radius_of(model.sections[el.section], length));
   }
-  if (sim.spline_contact() && options.progress)
+  if (sim.contact() && options.progress)
     fmt::print(stderr,
-               "spline contact: initial clearance {:.6g} mm (smallest effective gap between the "
-               "contact splines before loading)\n",
-               1e3 * sim.initial_contact_clearance());
+               "{} contact: initial clearance {:.6g} mm (smallest gap the contact sees before "
+               "loading{})\n",
+               sim.contact()->formulations(), 1e3 * sim.initial_contact_clearance(),
+               model.spline_contacts.empty() ? "" : "; the splines' effective gap");
   output::ResultsFile results(
       options.output_dir, mesh,
       output::RunMetadata{options.deck_text, options.deck_path, kVersion, options.threads});
@@ -355,8 +356,8 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
   summary.iterations = sim.total_iterations();
   summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   summary.final_positions = sim.state().x_n;
-  if (sim.spline_contact())
-    summary.final_contacts = sim.spline_contact()->points();
+  if (sim.contact())
+    summary.final_contacts = sim.contact()->points();
   summary.linear_solver = sim.linear_solver_name();
   results.close("completed",
                 fmt::format("{} increments, {} Newton iterations, {:.3f} s, linear solver {}",

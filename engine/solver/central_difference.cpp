@@ -253,32 +253,67 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
   double w2_contact = 0;
   std::string contact_name;
   if (sim.contact_) {
-    auto lightest = [&](const std::vector<int>& splines, double& radius) {
+    // Lightest moving node of a group of contact curves (nodes(c): the nodes of curve c) and
+    // the group's smallest section size (size(c), m).
+    auto lightest = [&](const std::vector<int>& curves, auto nodes, auto size, double& radius) {
       double m = std::numeric_limits<double>::infinity();
-      for (int s : splines) {
-        radius = std::min(radius, model.splines[s].radius);
-        for (int node : model.splines[s].nodes) {
+      for (int c : curves) {
+        radius = std::min(radius, size(c));
+        for (int node : nodes(c)) {
           bool moves = false;
-          for (int c = 0; c < 3; ++c)
-            moves = moves || assembler.equation(6 * node + c) >= 0;
+          for (int k = 0; k < 3; ++k)
+            moves = moves || assembler.equation(6 * node + k) >= 0;
           if (moves && mass(node) > 0)
             m = std::min(m, mass(node));
         }
       }
       return m;
     };
-    for (const SplineContactDefinition& def : model.spline_contacts) {
-      double r_min = std::numeric_limits<double>::infinity();
-      double m_a = lightest(def.group_a, r_min), m_b = lightest(def.group_b, r_min);
-      if (def.self_contact) // pairs within a group too
-        m_a = m_b = std::min(m_a, m_b);
+    auto consider = [&](const std::string& name, const InterfaceLawParameters& law, double m_a,
+                        double m_b, double r_min) {
       const double p = std::max(2 * sim.contact_->max_penetration(), 0.1 * r_min);
-      const double k = def.law.penalty * def.law.exponent * std::pow(p, def.law.exponent - 1);
+      const double k = law.penalty * law.exponent * std::pow(p, law.exponent - 1);
       const double w2 = k * (1 / m_a + 1 / m_b);
       if (w2 > w2_contact) {
         w2_contact = w2;
-        contact_name = def.name;
+        contact_name = name;
       }
+    };
+    auto spline_nodes = [&](int s) { return model.splines[s].nodes; };
+    auto spline_size = [&](int s) { return model.splines[s].radius; };
+    for (const SplineContactDefinition& def : model.spline_contacts) {
+      double r_min = std::numeric_limits<double>::infinity();
+      double m_a = lightest(def.group_a, spline_nodes, spline_size, r_min);
+      double m_b = lightest(def.group_b, spline_nodes, spline_size, r_min);
+      if (def.self_contact) // pairs within a group too
+        m_a = m_b = std::min(m_a, m_b);
+      consider(def.name, def.law, m_a, m_b, r_min);
+    }
+    // Surfaces: the contact force also acts at up to the section's reach from the axis, which
+    // twists the end nodes about the yarn axis (rotary inertia J_3 = rho (I1 + I2) per length,
+    // lumped): each side adds the larger of 1/m and reach^2 / J_3 of its moving end nodes.
+    for (const SurfaceContactDefinition& def : model.surface_contacts) {
+      double r_min = std::numeric_limits<double>::infinity();
+      double flexibility[2] = {0, 0}; // 1/kg per side
+      for (int side = 0; side < 2; ++side)
+        for (int s : side == 0 ? def.group_a : def.group_b) {
+          const Surface& surface = model.surfaces[s];
+          const double reach = std::max(surface.a, surface.b);
+          r_min = std::min(r_min, std::min(surface.a, surface.b));
+          for (int e : surface.elements)
+            for (int node : {model.elements[e].nodes[0], model.elements[e].nodes[2]}) {
+              bool moves = false;
+              for (int k = 0; k < 6; ++k)
+                moves = moves || assembler.equation(6 * node + k) >= 0;
+              if (!moves || !(mass(node) > 0))
+                continue;
+              const double J3 = sim.rotary_inertia_(2, node);
+              flexibility[side] =
+                  std::max({flexibility[side], 1 / mass(node), J3 > 0 ? reach * reach / J3 : 0.0});
+            }
+        }
+      if (flexibility[0] > 0 && flexibility[1] > 0)
+        consider(def.name, def.law, 1 / flexibility[0], 1 / flexibility[1], r_min);
     }
   }
 
@@ -508,7 +543,7 @@ void CentralDifference::advance(double h, double t_new) {
   // Contact at the new positions, then the increment is committed: Gauss-point histories with the
   // rotation increments, triads, the work of the loads.
   if (sim_.contact_) {
-    const std::string veto = sim_.contact_->evaluate(st.x, false);
+    const std::string veto = sim_.contact_->evaluate(st, false);
     if (!veto.empty())
       fail(veto);
   }
@@ -648,7 +683,7 @@ void CentralDifference::run(SimulationObserver* observer) {
   st.x = st.x_n;
   st.alpha.setZero();
   if (sim_.contact_) {
-    const std::string veto = sim_.contact_->evaluate(st.x, false);
+    const std::string veto = sim_.contact_->evaluate(st, false);
     if (!veto.empty())
       fail(veto);
   }

@@ -69,8 +69,7 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
     kind = moments ? LinearSolverKind::LU : LinearSolverKind::LDLTSymmetric;
   }
   solver_ = make_linear_solver(kind);
-  if (!model.spline_contacts.empty())
-    contact_ = std::make_unique<SplineContactSet>(model);
+  contact_ = ContactStage::of(model);
   solver_name_ = solver_->name();
 
   // Reference triads, lumped mass and rotary inertia (1/6, 2/3, 1/6 of each element).
@@ -132,7 +131,7 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   if (contact_) {
     // The clearance each formulation sees before loading (the spline passes inside the
     // interior nodes, so it differs from the nominal gap between the yarn surfaces).
-    contact_->evaluate(state_.x, false);
+    contact_->evaluate(state_, false);
     initial_clearance_ = contact_->min_gap();
   }
 }
@@ -189,7 +188,7 @@ struct Simulation::IterationGraph {
                 const auto t0 = std::chrono::steady_clock::now();
                 // New candidate pairs may grow the pattern: before anything is assembled.
                 if (s.contact_)
-                  s.contact_->update_candidates(s.state_.x);
+                  s.contact_->update_candidates(s.state_);
                 if (s.contact_ && s.coupled_candidates_ != s.contact_->candidates_version()) {
                   s.assembler_->ensure_couplings(s.contact_->couplings());
                   s.coupled_candidates_ = s.contact_->candidates_version();
@@ -202,7 +201,7 @@ struct Simulation::IterationGraph {
                [&s](const tbb::flow::continue_msg&) {
                  const auto t0 = std::chrono::steady_clock::now();
                  if (s.contact_)
-                   s.iteration_.veto = s.contact_->project(s.state_.x, true);
+                   s.iteration_.veto = s.contact_->project(s.state_, true);
                  s.stage_times_.contact_search += seconds_since(t0);
                }),
         beams(graph,

@@ -5,7 +5,7 @@
 // Simo and Vu-Quoc's material form on rotations.
 
 #include "engine/assembly/assembler.hpp"
-#include "engine/contact/spline_contact_set.hpp"
+#include "engine/contact/contact_set.hpp"
 #include "engine/model/model.hpp"
 #include "engine/solver/linear_solver.hpp"
 #include "engine/state/state.hpp"
@@ -106,8 +106,8 @@ public:
   const Model& model() const { return model_; }
   const State& state() const { return state_; }
   const Assembler& assembler() const { return *assembler_; }
-  /// The spline contact stage, or null when the model has no contact.
-  const SplineContactSet* spline_contact() const { return contact_.get(); }
+  /// The contact stage (spline and surface contacts), or null when the model has no contact.
+  const ContactStage* contact() const { return contact_.get(); }
   int total_iterations() const { return total_iterations_; }
   const std::string& linear_solver_name() const { return solver_name_; }
   const StageTimes& stage_times() const { return stage_times_; }
@@ -120,8 +120,9 @@ public:
   double kinetic_energy() const;
   /// Strain energy of the last converged increment, J.
   double strain_energy() const;
-  /// Smallest effective gap of the spline contact in the initial configuration (the clearance
-  /// the formulation sees, which differs from a nominal surface gap), m; NaN without contact.
+  /// Smallest gap of the contact in the initial configuration (the clearance the formulation
+  /// sees: the spline contact's effective gap differs from the nominal surface gap), m; NaN
+  /// without contact.
   double initial_contact_clearance() const { return initial_clearance_; }
   /// Elastic energy stored in the contacts of the last converged increment, J.
   double contact_energy() const { return contact_ ? contact_->potential() : 0.0; }
@@ -165,7 +166,7 @@ private:
   SimulationOptions options_;
   std::unique_ptr<Assembler> assembler_;
   std::unique_ptr<LinearSolver> solver_;
-  std::unique_ptr<SplineContactSet> contact_;
+  std::unique_ptr<ContactStage> contact_;
   std::string solver_name_;
   State state_;
   std::vector<Eigen::Matrix3d> Q0_; ///< reference nodal triads

@@ -53,7 +53,7 @@ void BM_NewtonIterationWeave(benchmark::State& state) {
     t1 = sim.stage_times();
     it1 = sim.total_iterations();
     state.counters["dof"] = 6.0 * m.nodes.size();
-    state.counters["active_contacts"] = sim.spline_contact()->active();
+    state.counters["active_contacts"] = sim.contact()->active();
   }
   const double k = 1e3 / std::max(1, it1 - it0);
   state.counters["contact_ms"] = k * (t1.contact_search - t0.contact_search);

@@ -121,7 +121,7 @@ TEST(Biaxial, OneAndTwoThreadsGiveBitwiseIdenticalResults) {
     void on_increment(const Simulation& s, const IncrementReport&) override {
       x.push_back(s.state().x_n);
       r.push_back(s.reactions());
-      f.push_back(s.spline_contact()->total_force());
+      f.push_back(s.contact()->total_force());
     }
   };
   Snapshot one, two;

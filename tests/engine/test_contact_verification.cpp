@@ -68,7 +68,7 @@ Crossing crossing_beams(double eps, bool clamped, int n_el) {
 
 double contact_force(const Simulation& sim) {
   double f = 0;
-  for (const ContactPoint& p : sim.spline_contact()->points())
+  for (const ContactPoint& p : sim.contact()->points())
     f += p.force;
   return f;
 }
@@ -82,7 +82,7 @@ TEST(ContactVerification, CrossingBeamsSimplySupportedMatchTheClosedForm) {
     const double expected = 1.0 / (2 + k / eps);
     const double got = contact_force(sim);
     std::printf("simply supported, eps %.0e: F_c %.6f (closed form %.6f, %+.3f %%), %d point(s)\n",
-                eps, got, expected, 100 * (got / expected - 1), sim.spline_contact()->active());
+                eps, got, expected, 100 * (got / expected - 1), sim.contact()->active());
     EXPECT_NEAR(got, expected, 0.005 * expected) << "eps " << eps;
   }
 }
@@ -165,8 +165,8 @@ TEST(ContactVerification, SlidingAcrossSegmentBoundariesKeepsTheForceContinuous)
     std::vector<int> active;
     void on_increment(const Simulation& s, const IncrementReport& r) override {
       t.push_back(r.time);
-      f.push_back(s.spline_contact()->total_force());
-      active.push_back(s.spline_contact()->active());
+      f.push_back(s.contact()->total_force());
+      active.push_back(s.contact()->active());
     }
   } rec;
   Simulation sim(m);
@@ -255,7 +255,7 @@ TEST(ContactVerification, DroppedBeamDoesNotPassThroughAndGainsNoEnergy) {
           s.kinetic_energy() + s.strain_energy() + s.contact_energy() - s.external_work();
       worst_energy = std::max(worst_energy, e);
       max_work = std::max(max_work, s.external_work());
-      contact_increments += s.spline_contact()->active() > 0;
+      contact_increments += s.contact()->active() > 0;
     }
   } rec;
   rec.a_mid = 16;

@@ -298,7 +298,7 @@ TEST(Explicit, OneAndTwoThreadsGiveBitwiseIdenticalPositions) {
     std::vector<double> f;
     void on_increment(const Simulation& s, const IncrementReport&) override {
       x.push_back(s.state().x_n);
-      f.push_back(s.spline_contact()->total_force());
+      f.push_back(s.contact()->total_force());
     }
   };
   Snapshot one, two;
@@ -312,7 +312,7 @@ TEST(Explicit, OneAndTwoThreadsGiveBitwiseIdenticalPositions) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
     Simulation sim(m);
     sim.run(&two);
-    candidates = sim.spline_contact()->candidates();
+    candidates = sim.contact()->candidates();
   }
   std::printf("contact mat: %zu elements, %zu nodes, %d contact candidates, %zu snapshots, "
               "final contact force %.4g N\n",

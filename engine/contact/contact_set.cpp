@@ -1,0 +1,110 @@
+#include "engine/contact/contact_set.hpp"
+
+#include "engine/contact/spline_contact_set.hpp"
+#include "engine/contact/surface_contact_set.hpp"
+
+#include <algorithm>
+#include <limits>
+
+namespace yarnsim {
+
+std::unique_ptr<ContactStage> ContactStage::of(const Model& model) {
+  if (model.spline_contacts.empty() && model.surface_contacts.empty())
+    return nullptr;
+  auto stage = std::make_unique<ContactStage>();
+  if (!model.spline_contacts.empty()) {
+    stage->sets_.push_back(std::make_unique<SplineContactSet>(model));
+    stage->names_.push_back("spline");
+  }
+  if (!model.surface_contacts.empty()) {
+    stage->sets_.push_back(std::make_unique<SurfaceContactSet>(model));
+    stage->names_.push_back("surface");
+  }
+  return stage;
+}
+
+bool ContactStage::update_candidates(const State& state) {
+  bool changed = false;
+  for (auto& set : sets_)
+    changed = set->update_candidates(state) || changed;
+  return changed;
+}
+
+std::string ContactStage::project(const State& state, bool want_tangent) {
+  std::string veto;
+  for (auto& set : sets_) {
+    std::string why = set->project(state, want_tangent);
+    if (veto.empty())
+      veto = std::move(why);
+  }
+  return veto;
+}
+
+std::string ContactStage::evaluate(const State& state, bool want_tangent) {
+  update_candidates(state);
+  return project(state, want_tangent);
+}
+
+int ContactStage::candidates_version() const {
+  // Each set's version only grows, so the sum changes whenever one of them does.
+  int version = 0;
+  for (const auto& set : sets_)
+    version += set->candidates_version();
+  return version;
+}
+
+std::vector<std::array<int, 6>> ContactStage::couplings() const {
+  std::vector<std::array<int, 6>> out;
+  for (const auto& set : sets_) {
+    const auto c = set->couplings();
+    out.insert(out.end(), c.begin(), c.end());
+  }
+  return out;
+}
+
+void ContactStage::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+                            bool want_tangent) const {
+  for (const auto& set : sets_)
+    set->assemble(residual, assembler, want_tangent);
+}
+
+void ContactStage::commit() {
+  for (auto& set : sets_)
+    set->commit();
+}
+
+ContactSummary ContactStage::summary() const {
+  if (sets_.size() == 1)
+    return sets_.front()->summary();
+  ContactSummary out;
+  out.min_gap = std::numeric_limits<double>::infinity();
+  for (const auto& set : sets_) {
+    const ContactSummary& s = set->summary();
+    out.candidates += s.candidates;
+    out.active += s.active;
+    out.max_penetration = std::max(out.max_penetration, s.max_penetration);
+    out.max_force = std::max(out.max_force, s.max_force);
+    out.potential += s.potential;
+    out.total_force += s.total_force;
+    out.min_gap = std::min(out.min_gap, s.min_gap);
+  }
+  return out;
+}
+
+std::vector<ContactPoint> ContactStage::points() const {
+  std::vector<ContactPoint> out;
+  for (const auto& set : sets_) {
+    const auto p = set->points();
+    out.insert(out.end(), p.begin(), p.end());
+  }
+  return out;
+}
+
+std::string ContactStage::formulations() const {
+  std::string out;
+  for (std::size_t k = 0; k < names_.size(); ++k)
+    out += (k == 0 ? "" : " and ") + names_[k];
+  return out;
+}
+
+} // namespace yarnsim

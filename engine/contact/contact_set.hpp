@@ -1,0 +1,104 @@
+#pragma once
+// The contact stage of a Newton iteration, whatever the formulation: broad phase (candidate pairs
+// kept across iterations) -> narrow phase (projections of all candidates in parallel, warm-started
+// from the last converged increment) -> assembly of the active pairs in sorted order, so the sums
+// do not depend on the thread count. ContactSet is one formulation's stage (spline_contact_set.hpp,
+// surface_contact_set.hpp); ContactStage runs all of a model's, in a fixed order.
+
+#include "engine/model/model.hpp"
+#include "engine/state/state.hpp"
+
+#include <Eigen/Core>
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace yarnsim {
+
+class Assembler;
+
+/// An active contact point, for output.
+struct ContactPoint {
+  Eigen::Vector3d position; ///< midpoint of the two contact points, m
+  Eigen::Vector3d normal;   ///< from B to A
+  double gap = 0;           ///< signed gap, m; negative: penetration
+  double force = 0;         ///< normal force, N
+};
+
+/// Figures of the last evaluation, over all its pairs.
+struct ContactSummary {
+  int candidates = 0;
+  int active = 0;
+  double max_penetration = 0; ///< m, over active pairs (0 if none)
+  double max_force = 0;       ///< N
+  double potential = 0;       ///< elastic energy stored in the active pairs, J
+  double total_force = 0;     ///< sum of the normal forces of the active pairs, N
+  /// Smallest signed gap over the pairs whose projection converged in range, m; +infinity when
+  /// there is none. Before loading it is the clearance the formulation sees.
+  double min_gap = 0;
+};
+
+/// One contact formulation's stage over all of its definitions in a model.
+class ContactSet {
+public:
+  virtual ~ContactSet() = default;
+
+  /// Broad phase alone: refits the boxes at the state's current configuration and searches
+  /// again when the motion asks for it. Returns true when the candidate list changed.
+  virtual bool update_candidates(const State& state) = 0;
+  /// Narrow phase over the current candidates, in parallel, at the state's current
+  /// configuration (positions x, rotations Q(alpha) Q_n). Returns an empty string, or why the
+  /// configuration must be vetoed (a projection of a pair in contact failed or jumped).
+  virtual std::string project(const State& state, bool want_tangent) = 0;
+  /// Changes whenever a broad-phase search changed the candidate list.
+  virtual int candidates_version() const = 0;
+  /// Node groups of all current candidate pairs, for the sparsity pattern (all six DOFs of
+  /// every node of a group are coupled; unused slots repeat a node).
+  virtual std::vector<std::array<int, 6>> couplings() const = 0;
+  /// Adds the active pairs' residuals and, if want_tangent, tangents, in sorted pair order.
+  virtual void assemble(Eigen::VectorXd& residual, Assembler& assembler,
+                        bool want_tangent) const = 0;
+  /// Accepts the last evaluation as converged: warm starts and active flags for the next one.
+  virtual void commit() = 0;
+  /// Figures of the last evaluation (computed with it, not on each call).
+  virtual const ContactSummary& summary() const = 0;
+  virtual std::vector<ContactPoint> points() const = 0;
+};
+
+/// All contact sets of a model: spline contacts first, then surface contacts. Each call runs the
+/// sets in that order, so results do not depend on scheduling.
+class ContactStage {
+public:
+  /// Null when the model has no contact definitions.
+  static std::unique_ptr<ContactStage> of(const Model& model);
+
+  bool update_candidates(const State& state);
+  std::string project(const State& state, bool want_tangent);
+  /// Broad and narrow phase; returns as project().
+  std::string evaluate(const State& state, bool want_tangent);
+  int candidates_version() const;
+  std::vector<std::array<int, 6>> couplings() const;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
+  void commit();
+
+  /// Figures of the last evaluation, summed (counts, forces, energies) or extreme (penetration,
+  /// force, gap) over the sets.
+  ContactSummary summary() const;
+  int candidates() const { return summary().candidates; }
+  int active() const { return summary().active; }
+  double max_penetration() const { return summary().max_penetration; }
+  double max_force() const { return summary().max_force; }
+  double potential() const { return summary().potential; }
+  double min_gap() const { return summary().min_gap; }
+  double total_force() const { return summary().total_force; }
+  std::vector<ContactPoint> points() const;
+  /// "spline", "surface" or "spline and surface".
+  std::string formulations() const;
+
+private:
+  std::vector<std::unique_ptr<ContactSet>> sets_;
+  std::vector<std::string> names_;
+};
+
+} // namespace yarnsim

@@ -1,0 +1,237 @@
+#include "engine/contact/surface_contact_set.hpp"
+
+#include "engine/assembly/assembler.hpp"
+#include "engine/contact/spline_contact_set.hpp" // make_interface_law
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+#include <stdexcept>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace yarnsim {
+
+/// One contact definition: its segments (one per element of each surface in its groups), the
+/// broad phase over them and the interface law.
+struct SurfaceContactSet::Definition {
+  std::vector<int> surface;  ///< per segment id
+  std::vector<int> position; ///< per segment id: index of its element along the surface
+  std::vector<double> reach; ///< per segment id: largest distance of the section from the axis, m
+  std::unique_ptr<broadphase::CandidateSearch> search;
+  std::shared_ptr<const contact::InterfaceLaw> law;
+  std::vector<Eigen::AlignedBox3d> boxes;
+};
+
+SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
+  for (const Surface& s : model.surfaces) {
+    sections_.emplace_back(s.a, s.b, s.exponent);
+    for (std::size_t k = 1; k < s.elements.size(); ++k)
+      if (model.elements[s.elements[k]].nodes[0] != model.elements[s.elements[k - 1]].nodes[2])
+        throw std::invalid_argument(fmt::format(
+            "surface '{}': element {} does not start at the last node of element {} (a surface's "
+            "elements must form a chain in order)",
+            s.name, s.elements[k] + 1, s.elements[k - 1] + 1));
+  }
+  for (const SurfaceContactDefinition& def : model.surface_contacts) {
+    auto d = std::make_unique<Definition>();
+    std::vector<broadphase::SegmentInfo> info;
+    double margin = def.margin;
+    for (int group = 0; group < 2; ++group)
+      for (int s : group == 0 ? def.group_a : def.group_b) {
+        const Surface& surface = model.surfaces[s];
+        // The section lies within its bounding rectangle: an ellipse within max(a, b) of the
+        // axis, a super-ellipse within the rectangle's half diagonal.
+        const double reach = surface.exponent == 2.0 ? std::max(surface.a, surface.b)
+                                                     : std::hypot(surface.a, surface.b);
+        for (std::size_t k = 0; k < surface.elements.size(); ++k) {
+          d->surface.push_back(s);
+          d->position.push_back(static_cast<int>(k));
+          d->reach.push_back(reach);
+          info.push_back({s, static_cast<int>(k), group});
+          if (def.margin <= 0)
+            margin = std::max(margin, std::max(surface.a, surface.b));
+        }
+      }
+    broadphase::CandidateSearchOptions options;
+    options.margin = margin;
+    options.same_curve_skip = 1;
+    options.self_contact = false;
+    d->search = std::make_unique<broadphase::CandidateSearch>(
+        std::move(info), std::vector<std::pair<int, int>>{{0, 1}}, options);
+    d->law = make_interface_law(def.law);
+    d->boxes.resize(d->surface.size());
+    definitions_.push_back(std::move(d));
+  }
+}
+
+SurfaceContactSet::~SurfaceContactSet() = default;
+
+std::array<int, 4> SurfaceContactSet::nodes_of(const Definition& d,
+                                               const broadphase::CandidatePair& p) const {
+  const BeamElement& a =
+      model_.elements[model_.surfaces[d.surface[p.first]].elements[d.position[p.first]]];
+  const BeamElement& b =
+      model_.elements[model_.surfaces[d.surface[p.second]].elements[d.position[p.second]]];
+  return {a.nodes[0], a.nodes[2], b.nodes[0], b.nodes[2]};
+}
+
+contact::SuperEllipticalCylinder SurfaceContactSet::cylinder(const Definition& d, int s,
+                                                             const State& state) const {
+  const Surface& surface = model_.surfaces[d.surface[s]];
+  const int k = d.position[s];
+  auto node = [&state](int n) {
+    return contact::SurfaceNode{state.x.col(n), state.alpha.col(n), state.Q_n[n]};
+  };
+  const BeamElement& el = model_.elements[surface.elements[k]];
+  const bool last = k + 1 == static_cast<int>(surface.elements.size());
+  if (k == 0)
+    return {node(el.nodes[0]), node(el.nodes[2]), sections_[d.surface[s]], last};
+  // The element before knows the ridge at the shared node (SurfaceDegeneration::RidgeOnA).
+  const contact::SurfaceNode previous = node(model_.elements[surface.elements[k - 1]].nodes[0]);
+  return {node(el.nodes[0]), node(el.nodes[2]), sections_[d.surface[s]], last, &previous};
+}
+
+bool SurfaceContactSet::update_candidates(const State& state) {
+  bool changed = work_.empty() && candidates_version_ == 0;
+  for (auto& dp : definitions_) {
+    Definition& d = *dp;
+    for (std::size_t s = 0; s < d.surface.size(); ++s) {
+      const BeamElement& el =
+          model_.elements[model_.surfaces[d.surface[s]].elements[d.position[s]]];
+      Eigen::AlignedBox3d box(state.x.col(el.nodes[0]));
+      box.extend(state.x.col(el.nodes[2]));
+      d.boxes[s] = box;
+    }
+    changed = d.search->update(d.boxes, d.reach) || changed;
+  }
+  if (!changed)
+    return false;
+  // The work list follows the candidates: rebuilt only when a search changed them.
+  ++candidates_version_;
+  work_.clear();
+  for (std::size_t k = 0; k < definitions_.size(); ++k)
+    for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
+      work_.push_back({static_cast<int>(k), p, {}});
+  return true;
+}
+
+std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
+  contact::SurfaceContactOptions options;
+  options.compute_tangent = want_tangent;
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, work_.size(), 8),
+      [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t w = range.begin(); w != range.end(); ++w) {
+          Work& item = work_[w];
+          const Definition& d = *definitions_[item.definition];
+          contact::SurfaceProjectionStart start;
+          const auto it = committed_.find(Key{item.definition, item.pair.first, item.pair.second});
+          if (it != committed_.end())
+            start = {it->second.zeta_A, it->second.theta_A, it->second.zeta_B, it->second.theta_B,
+                     true};
+          try {
+            const auto A = cylinder(d, item.pair.first, state);
+            const auto B = cylinder(d, item.pair.second, state);
+            contact::surface_contact(A, B, start, *d.law, item.result, options);
+          } catch (const std::invalid_argument&) {
+            // Non-finite node data (a diverging iterate): the pair cannot be projected.
+            item.result = {};
+            item.result.status = contact::ProjectionStatus::NotConverged;
+          }
+        }
+      });
+
+  summary_ = {};
+  summary_.candidates = static_cast<int>(work_.size());
+  summary_.min_gap = std::numeric_limits<double>::infinity();
+  for (const Work& w : work_) {
+    const auto& r = w.result;
+    if (r.status == contact::ProjectionStatus::Converged)
+      summary_.min_gap = std::min(summary_.min_gap, r.gap);
+    if (!r.active)
+      continue;
+    ++summary_.active;
+    summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
+    summary_.max_force = std::max(summary_.max_force, r.force);
+    summary_.potential += r.potential;
+    summary_.total_force += r.force;
+  }
+
+  // Veto: a pair in contact at the last converged increment, or now, whose projection failed or
+  // jumped.
+  for (const Work& item : work_) {
+    const auto status = item.result.status;
+    if (status != contact::ProjectionStatus::NotConverged &&
+        status != contact::ProjectionStatus::Jumped)
+      continue;
+    const auto it = committed_.find(Key{item.definition, item.pair.first, item.pair.second});
+    const bool was_active = it != committed_.end() && it->second.active;
+    if (was_active || item.result.active) {
+      const Definition& d = *definitions_[item.definition];
+      const auto element = [&](int s) {
+        return model_.surfaces[d.surface[s]].elements[d.position[s]] + 1;
+      };
+      return fmt::format("contact '{}': surface projection {} between surface '{}' element {} "
+                         "and surface '{}' element {}",
+                         model_.surface_contacts[item.definition].name, contact::to_string(status),
+                         model_.surfaces[d.surface[item.pair.first]].name, element(item.pair.first),
+                         model_.surfaces[d.surface[item.pair.second]].name,
+                         element(item.pair.second));
+    }
+  }
+  return {};
+}
+
+std::vector<std::array<int, 6>> SurfaceContactSet::couplings() const {
+  std::vector<std::array<int, 6>> out;
+  out.reserve(work_.size());
+  for (const Work& item : work_) {
+    const std::array<int, 4> n = nodes_of(*definitions_[item.definition], item.pair);
+    out.push_back({n[0], n[1], n[2], n[3], n[3], n[3]});
+  }
+  return out;
+}
+
+void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+                                 bool want_tangent) const {
+  for (const Work& item : work_) {
+    if (!item.result.active)
+      continue;
+    const std::array<int, 4> n = nodes_of(*definitions_[item.definition], item.pair);
+    // Kernel order per surface X (0: A, 1: B): x_first, x_last, alpha_first, alpha_last.
+    for (int X = 0; X < 2; ++X)
+      for (int k = 0; k < 2; ++k) {
+        const int node = n[2 * X + k];
+        residual.segment<3>(6 * node) += item.result.residual.segment<3>(12 * X + 3 * k);
+        residual.segment<3>(6 * node + 3) += item.result.residual.segment<3>(12 * X + 6 + 3 * k);
+      }
+    if (want_tangent)
+      assembler.add_surface_pair_block(n, item.result.tangent);
+  }
+}
+
+void SurfaceContactSet::commit() {
+  // Keep warm starts of the current candidates only; pairs that left the list start cold.
+  std::map<Key, Committed> next;
+  for (const Work& item : work_) {
+    const auto& r = item.result;
+    if (r.status == contact::ProjectionStatus::NotConverged)
+      continue;
+    next[Key{item.definition, item.pair.first, item.pair.second}] = {r.zeta_A, r.theta_A, r.zeta_B,
+                                                                     r.theta_B, r.active};
+  }
+  committed_ = std::move(next);
+}
+
+std::vector<ContactPoint> SurfaceContactSet::points() const {
+  std::vector<ContactPoint> out;
+  for (const Work& w : work_)
+    if (w.result.active)
+      out.push_back({0.5 * (w.result.point_A + w.result.point_B), w.result.normal, w.result.gap,
+                     w.result.force});
+  return out;
+}
+
+} // namespace yarnsim

@@ -1,0 +1,66 @@
+#pragma once
+// The surface-to-surface contact stage (formulation.md §6, the paper's "Surface" model): on each
+// element of a surface a super-elliptical cylinder between its end nodes; candidate element pairs
+// from the FCL-backed search; the four-unknown local contact problem of every candidate in
+// parallel, warm-started from the last converged increment; assembly of the active pairs' 24 x 24
+// blocks (translations and rotations of the four end nodes) in sorted order.
+
+#include "broadphase/candidate_search.hpp"
+#include "contact/interface_law.hpp"
+#include "contact/surface_contact.hpp"
+#include "engine/contact/contact_set.hpp"
+
+#include <Eigen/Core>
+#include <array>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace yarnsim {
+
+class SurfaceContactSet final : public ContactSet {
+public:
+  /// Throws std::invalid_argument when a surface's elements do not form a chain.
+  explicit SurfaceContactSet(const Model& model);
+  ~SurfaceContactSet() override;
+
+  bool update_candidates(const State& state) override;
+  std::string project(const State& state, bool want_tangent) override;
+  int candidates_version() const override { return candidates_version_; }
+  /// The four end nodes of each candidate pair (A's first and last, B's first and last).
+  std::vector<std::array<int, 6>> couplings() const override;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
+  void commit() override;
+  /// Gaps are signed distances between the surfaces.
+  const ContactSummary& summary() const override { return summary_; }
+  std::vector<ContactPoint> points() const override;
+
+private:
+  struct Definition;
+  struct Work {
+    int definition;
+    broadphase::CandidatePair pair;
+    contact::SurfaceContactResult result;
+  };
+  using Key = std::array<int, 3>; ///< definition, first, second segment id
+
+  /// End nodes of a pair's two elements: A first, A last, B first, B last.
+  std::array<int, 4> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
+  /// The cylinder of segment s of definition d at the state's configuration.
+  contact::SuperEllipticalCylinder cylinder(const Definition& d, int s, const State& state) const;
+
+  const Model& model_;
+  std::vector<contact::SuperEllipse> sections_; ///< per surface
+  std::vector<std::unique_ptr<Definition>> definitions_;
+  std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
+  struct Committed {
+    double zeta_A, theta_A, zeta_B, theta_B;
+    bool active;
+  };
+  std::map<Key, Committed> committed_;
+  int candidates_version_ = 0;
+  ContactSummary summary_;
+};
+
+} // namespace yarnsim
