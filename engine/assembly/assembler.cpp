@@ -233,7 +233,7 @@ void Assembler::add_translation_block(const std::array<int, 6>& nodes,
 }
 
 void Assembler::add_surface_pair_block(const std::array<int, 4>& nodes,
-                                       const Eigen::Matrix<double, 24, 24>& block) {
+                                       const Eigen::Matrix<double, 24, 24>& block, double scale) {
   // Global DOF of kernel index k: surface k / 12, then x_first, x_last, alpha_first, alpha_last.
   std::array<int, 24> dof;
   for (int k = 0; k < 24; ++k) {
@@ -252,7 +252,7 @@ void Assembler::add_surface_pair_block(const std::array<int, 4>& nodes,
         continue;
       const int s = slot_of(matrix_, row, col);
       assert(s >= 0 && "contact coupling missing from the pattern");
-      values[s] += block(i, j);
+      values[s] += scale * block(i, j);
     }
   }
 }

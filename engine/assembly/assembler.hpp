@@ -66,9 +66,9 @@ public:
   /// Adds a surface contact pair's 24 x 24 tangent over the translations and rotations of its
   /// four end nodes, nodes = (A first, A last, B first, B last), in the kernel's order per surface:
   /// x_first, x_last, alpha_first, alpha_last (contact/surface_contact.hpp). The pattern must hold
-  /// the coupling (ensure_couplings).
+  /// the coupling (ensure_couplings). The block is multiplied by scale.
   void add_surface_pair_block(const std::array<int, 4>& nodes,
-                              const Eigen::Matrix<double, 24, 24>& block);
+                              const Eigen::Matrix<double, 24, 24>& block, double scale = 1.0);
 
 private:
   void build_pattern();

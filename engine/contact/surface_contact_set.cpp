@@ -7,9 +7,11 @@
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tuple>
 
 namespace yarnsim {
 
@@ -135,6 +137,24 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
             const auto A = cylinder(d, item.pair.first, state);
             const auto B = cylinder(d, item.pair.second, state);
             contact::surface_contact(A, B, start, *d.law, item.result, options);
+            if (item.result.status == contact::ProjectionStatus::Jumped) {
+              // The warm start led far away. Where the last solution has vanished (two critical
+              // points of the distance met and annihilated, as happens on the flat faces of
+              // wide ellipses), no smaller step brings it back: the solution a cold start finds
+              // from the geometry alone is then the pair's contact. The jump stands (and vetoes
+              // the increment) only if the cold start finds another point.
+              const contact::SurfaceContactResult& warm = item.result;
+              const auto cold = contact::surface_contact(A, B, {}, *d.law, options);
+              const double tolerance = 1e-6;
+              if (cold.status == contact::ProjectionStatus::Converged &&
+                  std::abs(cold.zeta_A - warm.zeta_A) < tolerance &&
+                  std::abs(cold.zeta_B - warm.zeta_B) < tolerance &&
+                  std::abs(std::remainder(cold.theta_A - warm.theta_A, 2 * std::numbers::pi)) <
+                      tolerance &&
+                  std::abs(std::remainder(cold.theta_B - warm.theta_B, 2 * std::numbers::pi)) <
+                      tolerance)
+                item.result = cold;
+            }
           } catch (const std::invalid_argument&) {
             // Non-finite node data (a diverging iterate): the pair cannot be projected.
             item.result = {};
@@ -143,6 +163,7 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
         }
       });
 
+  merge_valley_duplicates();
   summary_ = {};
   summary_.candidates = static_cast<int>(work_.size());
   summary_.min_gap = std::numeric_limits<double>::infinity();
@@ -182,6 +203,55 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
     }
   }
   return {};
+}
+
+void SurfaceContactSet::merge_valley_duplicates() {
+  // Two consecutive elements of one surface meet at a kink. Where that kink is concave towards
+  // the other surface (a valley), the extensions of the two cylinders overlap near the shared
+  // node, and a point of the other surface pressing there is inside both: each pair owns a
+  // solution in its range, and counting both would double the contact stiffness. Two active pairs
+  // that share one element, whose other elements are neighbours on one surface, and whose points
+  // on the shared element coincide (within a tenth of its smaller semi-axis) are one contact: the
+  // deeper one is kept (ties: the element after the kink, as ownership of a node does). Pairs
+  // whose points on the shared element differ are kept both: a crimped yarn crossing another
+  // touches it on up to four element pairs around the crossing (docs/verification.md).
+  auto same_contact = [&](const Work& p, const Work& q, bool shared_first) {
+    if (p.definition != q.definition || !p.result.active || !q.result.active)
+      return false;
+    const Definition& d = *definitions_[p.definition];
+    const int ps = shared_first ? p.pair.first : p.pair.second;
+    const int qs = shared_first ? q.pair.first : q.pair.second;
+    const int po = shared_first ? p.pair.second : p.pair.first;
+    const int qo = shared_first ? q.pair.second : q.pair.first;
+    if (ps != qs || d.surface[po] != d.surface[qo] ||
+        std::abs(d.position[po] - d.position[qo]) != 1)
+      return false;
+    const Surface& shared = model_.surfaces[d.surface[ps]];
+    const double tolerance = 0.1 * std::min(shared.a, shared.b);
+    const Eigen::Vector3d& x_p = shared_first ? p.result.point_A : p.result.point_B;
+    const Eigen::Vector3d& x_q = shared_first ? q.result.point_A : q.result.point_B;
+    return (x_p - x_q).norm() <= tolerance;
+  };
+  auto keep_deeper = [](Work& p, Work& q) {
+    (p.result.penetration > q.result.penetration ? q : p).result.active = false;
+  };
+  // work_ is sorted by (definition, first, second): pairs sharing a first element are adjacent;
+  // pairs sharing a second element are found through a sorted index.
+  for (std::size_t i = 0; i + 1 < work_.size(); ++i)
+    if (same_contact(work_[i], work_[i + 1], true))
+      keep_deeper(work_[i], work_[i + 1]);
+  std::vector<std::size_t> by_second(work_.size());
+  for (std::size_t i = 0; i < by_second.size(); ++i)
+    by_second[i] = i;
+  std::sort(by_second.begin(), by_second.end(), [&](std::size_t i, std::size_t j) {
+    const Work& p = work_[i];
+    const Work& q = work_[j];
+    return std::tie(p.definition, p.pair.second, p.pair.first) <
+           std::tie(q.definition, q.pair.second, q.pair.first);
+  });
+  for (std::size_t k = 0; k + 1 < by_second.size(); ++k)
+    if (same_contact(work_[by_second[k]], work_[by_second[k + 1]], false))
+      keep_deeper(work_[by_second[k]], work_[by_second[k + 1]]);
 }
 
 std::vector<std::array<int, 6>> SurfaceContactSet::couplings() const {

@@ -47,6 +47,8 @@ private:
 
   /// End nodes of a pair's two elements: A first, A last, B first, B last.
   std::array<int, 4> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
+  /// Deactivates the second count of a contact pressing into a valley between two elements.
+  void merge_valley_duplicates();
   /// The cylinder of segment s of definition d at the state's configuration.
   contact::SuperEllipticalCylinder cylinder(const Definition& d, int s, const State& state) const;
 

@@ -183,6 +183,15 @@ constexpr KeySpec kSplineKeys[] = {
 };
 constexpr TableSpec kSpline{"[[splines]]", kSplineKeys};
 
+constexpr KeySpec kSurfaceKeys[] = {
+    {"name", Type::String, kRequired},
+    {"node_set", Type::String, kRequired},
+    {"a", Type::Number, kOptional, kPositive},
+    {"b", Type::Number, kOptional, kPositive},
+    {"exponent", Type::Number, kOptional, kExponent},
+};
+constexpr TableSpec kSurface{"[[surfaces]]", kSurfaceKeys};
+
 constexpr KeySpec kContactKeys[] = {
     {"name", Type::String, kRequired},
     {"type", Type::String, kRequired},
@@ -212,6 +221,7 @@ constexpr KeySpec kDeckKeys[] = {
     {"steps", Type::Tables, kRequired, kAnyValue, &kStep},
     {"monitors", Type::Tables, kOptional, kAnyValue, &kMonitor},
     {"splines", Type::Tables, kOptional, kAnyValue, &kSpline},
+    {"surfaces", Type::Tables, kOptional, kAnyValue, &kSurface},
     {"contacts", Type::Tables, kOptional, kAnyValue, &kContact},
 };
 constexpr TableSpec kDeck{"the top level of the deck", kDeckKeys};
@@ -244,6 +254,7 @@ public:
     steps();
     monitors();
     splines();
+    surfaces();
     contacts();
     check_free_nodes();
     check_mass();
@@ -1115,8 +1126,11 @@ private:
     return {std::move(order), {}};
   }
 
-  /// Spline nodes given as `node_set = "name"`: the set's nodes ordered along its elements.
-  std::vector<int> spline_nodes_of_set(const CheckedTable& t) const {
+  /// Spline (or surface) nodes given as `node_set = "name"`: the set's nodes ordered along its
+  /// elements. `purpose` says why 3 nodes are the least.
+  std::vector<int> spline_nodes_of_set(
+      const CheckedTable& t,
+      std::string_view purpose = "the control points of a quadratic B-spline") const {
     const std::optional<int> set = node_set(t);
     if (!set)
       return {};
@@ -1125,9 +1139,9 @@ private:
     if (written.empty() && nodes_broken_)
       return {}; // a broken [[lines]] block, reported there
     if (written.size() < 3) {
-      t.error("node_set", fmt::format("expected a node set of at least 3 nodes (the control points "
-                                      "of a quadratic B-spline), found '{}' with {}",
-                                      name, written.size()));
+      t.error("node_set", fmt::format("expected a node set of at least 3 nodes ({}), found '{}' "
+                                      "with {}",
+                                      purpose, name, written.size()));
       return written;
     }
     if (!chain_checkable())
@@ -1147,13 +1161,7 @@ private:
     const auto all = root_.tables("splines");
     if (all.empty())
       return;
-    if (chain_checkable()) {
-      incident_.assign(model_.nodes.size(), {});
-      for (std::size_t e = 0; e < model_.elements.size(); ++e)
-        for (int j = 0; j < 3; ++j)
-          incident_[static_cast<std::size_t>(model_.elements[e].nodes[static_cast<std::size_t>(j)])]
-              .emplace_back(static_cast<int>(e), j);
-    }
+    build_incidence();
     for (const CheckedTable& t : all) {
       Spline s;
       if (auto name = t.string("name")) {
@@ -1176,7 +1184,120 @@ private:
     }
   }
 
-  /// A spline name in a contact group and where the deck gives it.
+  /// incident_, for the chain checks of splines and surfaces (once).
+  void build_incidence() {
+    if (!chain_checkable() || !incident_.empty())
+      return;
+    incident_.assign(model_.nodes.size(), {});
+    for (std::size_t e = 0; e < model_.elements.size(); ++e)
+      for (int j = 0; j < 3; ++j)
+        incident_[static_cast<std::size_t>(model_.elements[e].nodes[static_cast<std::size_t>(j)])]
+            .emplace_back(static_cast<int>(e), j);
+  }
+
+  /// [[surfaces]]: on each element of a node set's chain, in order along it, the contact
+  /// surface of the surface-to-surface contact (formulation.md §6). The semi-axes and exponent
+  /// default to those of the elements' section shape.
+  void surfaces() {
+    const auto all = root_.tables("surfaces");
+    if (all.empty())
+      return;
+    build_incidence();
+    for (const CheckedTable& t : all) {
+      Surface s;
+      if (auto name = t.string("name")) {
+        s.name = *name;
+        add_name(surface_names_, surface_origins_, *name, t, "name", "surface");
+      }
+      const std::vector<int> chain = t.present("node_set")
+                                         ? spline_nodes_of_set(t, "one 3-node element at least")
+                                         : std::vector<int>{};
+      if (chain.size() >= 3 && chain_checkable())
+        s.elements = surface_elements(t, chain);
+      // Semi-axes: the keys, else the section of the surface's elements.
+      const Section* section =
+          s.elements.empty()
+              ? nullptr
+              : &model_.sections[static_cast<std::size_t>(
+                    model_.elements[static_cast<std::size_t>(s.elements.front())].section)];
+      const bool shaped = section != nullptr && section->shape != SectionShape::General;
+      for (std::string_view key : {"a", "b"}) {
+        if (t.present(key) || section == nullptr || shaped)
+          continue;
+        t.error(fmt::format("missing required key '{}' (semi-axis of the contact section, m): "
+                            "the elements' section '{}' gives stiffnesses, not a shape",
+                            key, section->name));
+      }
+      if (shaped) {
+        s.a = section->a;
+        s.b = section->shape == SectionShape::Circle ? section->a : section->b;
+        s.exponent = section->exponent;
+      }
+      s.a = t.number("a").value_or(s.a);
+      s.b = t.number("b").value_or(s.b);
+      s.exponent = t.number("exponent").value_or(s.exponent);
+      model_.surfaces.push_back(std::move(s));
+    }
+  }
+
+  /// The elements along a chain of nodes (n0, n1, n2, n3, n4, ...: one element per three), each
+  /// running along it (its first node is the last of the one before).
+  std::vector<int> surface_elements(const CheckedTable& t, std::vector<int> chain) const {
+    std::vector<int> out;
+    if (chain.size() % 2 == 0) {
+      t.error("node_set", fmt::format("expected the nodes of whole 3-node elements (an odd "
+                                      "number along the chain), found {}",
+                                      chain.size()));
+      return out;
+    }
+    auto element_of = [&](int a, int m, int b, bool& forward) {
+      for (const auto& [e, j] : incident_[static_cast<std::size_t>(m)]) {
+        const auto& nd = model_.elements[static_cast<std::size_t>(e)].nodes;
+        if (j != 1)
+          continue;
+        if (nd[0] == a && nd[2] == b) {
+          forward = true;
+          return e;
+        }
+        if (nd[0] == b && nd[2] == a) {
+          forward = false;
+          return e;
+        }
+      }
+      return -1;
+    };
+    // The chain may run against the elements: then it is walked from its other end.
+    bool forward = true;
+    if (element_of(chain[0], chain[1], chain[2], forward) >= 0 && !forward)
+      std::reverse(chain.begin(), chain.end());
+    for (std::size_t k = 0; k + 2 < chain.size(); k += 2) {
+      bool fwd = true;
+      const int e = element_of(chain[k], chain[k + 1], chain[k + 2], fwd);
+      if (e < 0 || !fwd) {
+        t.error(
+            "node_set",
+            fmt::format(
+                fmt::runtime(e < 0 ? "expected one element on nodes {}, {}, {} (first, middle, "
+                                     "last) of the chain, found none"
+                                   : "expected the elements to run one way along the chain, found "
+                                     "the element on nodes {}, {}, {} running against the others"),
+                model_.node_label(chain[k]), model_.node_label(chain[k + 1]),
+                model_.node_label(chain[k + 2])));
+        return {};
+      }
+      out.push_back(e);
+    }
+    return out;
+  }
+
+  /// What a contact's groups name: splines or surfaces.
+  struct ContactKind {
+    const std::vector<std::string>& names;
+    std::string_view noun;  ///< "spline"
+    std::string_view block; ///< "[[splines]]"
+  };
+
+  /// A spline or surface name in a contact group and where the deck gives it.
   struct NameAt {
     std::string name;
     toml::source_region where;
@@ -1186,7 +1307,8 @@ private:
   /// One group: a spline name or a non-empty array of them; nullopt after reporting.
   std::optional<std::vector<NameAt>> contact_group(const toml::node& group,
                                                    const toml::source_region& fallback,
-                                                   const std::string& path) const {
+                                                   const std::string& path,
+                                                   const ContactKind& kind) const {
     const auto where = [&](const toml::node& n) {
       return n.source().begin.line != 0 ? n.source() : fallback;
     };
@@ -1195,8 +1317,8 @@ private:
     const toml::array* a = group.as_array();
     if (a == nullptr || a->empty()) {
       diagnostics_.error(where(group), path,
-                         fmt::format("expected a spline name or an array of spline names, found {}",
-                                     describe_found(group)));
+                         fmt::format("expected a {0} name or an array of {0} names, found {1}",
+                                     kind.noun, describe_found(group)));
       return std::nullopt;
     }
     std::vector<NameAt> out;
@@ -1207,9 +1329,9 @@ private:
       if (const auto* s = item.as_string()) {
         out.push_back({std::string(s->get()), where(item), item_path});
       } else {
-        diagnostics_.error(
-            where(item), item_path,
-            fmt::format("expected a spline name (a string), found {}", describe_found(item)));
+        diagnostics_.error(where(item), item_path,
+                           fmt::format("expected a {} name (a string), found {}", kind.noun,
+                                       describe_found(item)));
         ok = false;
       }
     }
@@ -1217,9 +1339,11 @@ private:
   }
 
   /// `between = [group, group]` (or one group), or `group_a` and `group_b`, resolved to spline
-  /// indices. A single group leaves group_b empty; it needs self_contact = true, which allows
-  /// contact within each group (between its splines and of a spline with itself).
-  void contact_groups(const CheckedTable& t, SplineContactDefinition& c) const {
+  /// or surface indices. A single group leaves group_b empty; it needs self_contact = true, which
+  /// allows contact within each group (between its splines and of a spline with itself; splines
+  /// only).
+  void contact_groups(const CheckedTable& t, const ContactKind& kind, std::vector<int>& group_a,
+                      std::vector<int>& group_b) const {
     const bool between = t.present("between");
     const bool a = t.present("group_a");
     const bool b = t.present("group_b");
@@ -1234,14 +1358,14 @@ private:
       const toml::node& n = *t.node("between");
       const toml::array* array = n.as_array();
       if (array == nullptr || array->empty() || array->size() > 2) {
-        t.error("between", fmt::format("expected one or two groups of spline names, [[\"a\", "
+        t.error("between", fmt::format("expected one or two groups of {} names, [[\"a\", "
                                        "...], [\"b\", ...]], found {}",
-                                       describe_found(n)));
+                                       kind.noun, describe_found(n)));
         return;
       }
       for (std::size_t i = 0; i < array->size(); ++i) {
         auto group = contact_group(*array->get(i), t.source("between", i),
-                                   fmt::format("{}[{}]", t.path("between"), i));
+                                   fmt::format("{}[{}]", t.path("between"), i), kind);
         ok = group.has_value() && ok;
         if (group)
           groups.push_back(std::move(*group));
@@ -1252,15 +1376,16 @@ private:
           continue;
         ok = t.valid(key) && ok; // a wrong type is reported by the schema
         if (t.valid(key))
-          groups.push_back(*contact_group(*t.node(key), t.source(key), t.path(key)));
+          groups.push_back(*contact_group(*t.node(key), t.source(key), t.path(key), kind));
       }
     } else if (b) {
       t.error("group_b", "'group_b' needs 'group_a' as well (or give 'between')");
       return;
     } else {
       if (!t.misspelt("between") && !t.misspelt("group_a") && !t.misspelt("group_b"))
-        t.error("missing required key 'between' (one or two groups of spline names), or "
-                "'group_a' and 'group_b'");
+        t.error(fmt::format("missing required key 'between' (one or two groups of {} names), or "
+                            "'group_a' and 'group_b'",
+                            kind.noun));
       return;
     }
     if (!ok)
@@ -1268,32 +1393,37 @@ private:
 
     std::unordered_map<std::string, std::pair<std::size_t, std::string>> first; // group, path
     for (std::size_t g = 0; g < groups.size(); ++g) {
-      std::vector<int>& out = g == 0 ? c.group_a : c.group_b;
+      std::vector<int>& out = g == 0 ? group_a : group_b;
       for (const NameAt& n : groups[g]) {
-        const auto it = std::find(spline_names_.begin(), spline_names_.end(), n.name);
-        if (it == spline_names_.end()) {
-          diagnostics_.error(n.where, n.path,
-                             unknown_name(spline_names_, n.name, "spline", "[[splines]]"));
+        const auto it = std::find(kind.names.begin(), kind.names.end(), n.name);
+        if (it == kind.names.end()) {
+          diagnostics_.error(
+              n.where, n.path,
+              unknown_name(kind.names, n.name, std::string(kind.noun), std::string(kind.block)));
           continue;
         }
         if (const auto f = first.find(n.name); f != first.end()) {
           diagnostics_.error(
               n.where, n.path,
               f->second.first == g
-                  ? fmt::format("expected each spline once in a group, found '{}' again (first "
+                  ? fmt::format("expected each {} once in a group, found '{}' again (first "
                                 "at {})",
-                                n.name, f->second.second)
-                  : fmt::format("expected each spline in one group only, found '{}' in both "
+                                kind.noun, n.name, f->second.second)
+                  : fmt::format("expected each {} in one group only, found '{}' in both "
                                 "groups (also at {})",
-                                n.name, f->second.second));
+                                kind.noun, n.name, f->second.second));
           continue;
         }
         first.emplace(n.name, std::pair{g, n.path});
-        out.push_back(static_cast<int>(it - spline_names_.begin()));
+        out.push_back(static_cast<int>(it - kind.names.begin()));
       }
     }
     // One group touches nothing but itself: that is self-contact, and must be asked for.
-    if (groups.size() == 1) {
+    if (groups.size() == 1 && kind.noun == "surface") {
+      t.error(between ? "between" : "group_a",
+              "expected two groups of surfaces, found one (surface contact within a group is not "
+              "available)");
+    } else if (groups.size() == 1) {
       if (!t.present("self_contact"))
         t.error(between ? "between" : "group_a",
                 "expected two groups of splines, found one (a single group is for contact "
@@ -1329,32 +1459,45 @@ private:
     }
   }
 
-  /// [[contacts]]: spline groups as indices into Model::splines, and the interface law.
+  /// [[contacts]]: spline or surface groups as indices into Model::splines or Model::surfaces,
+  /// and the interface law.
   void contacts() {
     std::vector<std::string> names;
     std::vector<Origin> origins;
     for (const CheckedTable& t : root_.tables("contacts")) {
-      SplineContactDefinition c;
-      if (auto name = t.string("name")) {
-        c.name = *name;
-        add_name(names, origins, *name, t, "name", "contact");
+      std::string name;
+      if (auto n = t.string("name")) {
+        name = *n;
+        add_name(names, origins, *n, t, "name", "contact");
       }
-      // Only spline contact exists so far; the keys are read as such whatever the type says, so
-      // that their problems are reported too.
-      if (const auto type = t.string("type"); type && *type != "spline") {
-        static constexpr std::string_view kTypes[] = {"spline"};
+      // An unknown type is reported, and the keys are then read as a spline contact's so that
+      // their problems are reported too.
+      const auto type = t.string("type");
+      if (type && *type != "spline" && *type != "surface") {
+        static constexpr std::string_view kTypes[] = {"spline", "surface"};
         const std::string_view suggestion = closest(*type, kTypes);
-        t.error("type",
-                fmt::format("expected \"spline\" (beam-to-beam spline contact, the only type so "
-                            "far), found \"{}\"{}",
-                            *type,
-                            *type == "surface"
-                                ? std::string(" (surface-to-surface contact is not available yet)")
-                            : suggestion.empty()
-                                ? std::string()
-                                : fmt::format("; did you mean \"{}\"?", suggestion)));
+        t.error("type", fmt::format("expected \"spline\" (beam-to-beam contact of C1 splines) or "
+                                    "\"surface\" (surface-to-surface contact of elliptical "
+                                    "cylinders), found \"{}\"{}",
+                                    *type,
+                                    suggestion.empty()
+                                        ? std::string()
+                                        : fmt::format("; did you mean \"{}\"?", suggestion)));
       }
-      contact_groups(t, c);
+      if (type == "surface") {
+        SurfaceContactDefinition c;
+        c.name = name;
+        contact_groups(t, {surface_names_, "surface", "[[surfaces]]"}, c.group_a, c.group_b);
+        contact_law(t, c.law);
+        if (t.present("self_contact"))
+          t.error("self_contact", "'self_contact' applies only to type = \"spline\"");
+        c.margin = t.number("margin").value_or(0);
+        model_.surface_contacts.push_back(std::move(c));
+        continue;
+      }
+      SplineContactDefinition c;
+      c.name = name;
+      contact_groups(t, {spline_names_, "spline", "[[splines]]"}, c.group_a, c.group_b);
       contact_law(t, c.law);
       c.self_contact = t.boolean("self_contact").value_or(false);
       c.margin = t.number("margin").value_or(0);
@@ -1414,8 +1557,8 @@ private:
   std::vector<Origin> material_origins_, section_origins_, node_set_origins_;
   /// Per node set, its nodes in the order the deck gives them (generation order for [[lines]]).
   std::vector<std::vector<int>> node_set_order_;
-  std::vector<std::string> spline_names_;
-  std::vector<Origin> spline_origins_;
+  std::vector<std::string> spline_names_, surface_names_;
+  std::vector<Origin> spline_origins_, surface_origins_;
   /// Per node, the (element, position 0..2) pairs that use it; built for the spline checks.
   std::vector<std::vector<std::pair<int, int>>> incident_;
   std::vector<const CheckedTable*> section_tables_;

@@ -136,6 +136,7 @@ int append_yarn(Fabric& fabric, bool warp, std::span<const Eigen::Vector3d> poin
           fmt::format("yarn {}: element {} has zero length or an axis parallel to its up vector",
                       yarn.index, e));
     element.reference_vector = r.normalized();
+    yarn.elements.push_back(static_cast<int>(model.elements.size()));
     model.elements.push_back(element);
   }
   fabric.yarns.push_back(std::move(yarn));
@@ -147,7 +148,7 @@ std::string yarn_name(const Yarn& yarn) {
 }
 
 void finish_fabric(Fabric& fabric, std::span<const double> contact_radius,
-                   const InterfaceLawParameters& law) {
+                   const InterfaceLawParameters& law, ContactFormulation formulation) {
   if (contact_radius.size() != fabric.yarns.size())
     throw std::invalid_argument(fmt::format("fabric: expected {} contact radii (one per yarn), "
                                             "found {}",
@@ -190,8 +191,23 @@ void finish_fabric(Fabric& fabric, std::span<const double> contact_radius,
     (y.warp ? contact.group_a : contact.group_b).push_back(index);
     contact.margin = std::max(contact.margin, contact_radius[k]);
   }
-  if (!contact.group_a.empty() && !contact.group_b.empty())
+  SurfaceContactDefinition surfaces{"warp-weft", {}, {}, law, 0.0};
+  for (const Yarn& y : fabric.yarns) {
+    const Section& section = model.sections[model.elements[y.elements.front()].section];
+    Surface surface{yarn_name(y), y.elements, section.a,
+                    section.shape == SectionShape::Circle ? section.a : section.b,
+                    section.exponent};
+    (y.warp ? surfaces.group_a : surfaces.group_b)
+        .push_back(static_cast<int>(model.surfaces.size()));
+    surfaces.margin = std::max({surfaces.margin, surface.a, surface.b});
+    model.surfaces.push_back(std::move(surface));
+  }
+  if (contact.group_a.empty() || contact.group_b.empty())
+    return;
+  if (formulation == ContactFormulation::Spline)
     model.spline_contacts.push_back(std::move(contact));
+  else
+    model.surface_contacts.push_back(std::move(surfaces));
 }
 
 } // namespace yarnsim::textile

@@ -15,8 +15,15 @@ namespace yarnsim::textile {
 /// A yarn of a fabric. Warp yarns run along x, weft yarns along y (paper §5).
 struct Yarn {
   bool warp = true;
-  int index = 0;          ///< 0-based within its direction: names "warp<index>", "weft<index>"
-  std::vector<int> nodes; ///< indices into Model::nodes, in order along the yarn (start to end)
+  int index = 0;             ///< 0-based within its direction: names "warp<index>", "weft<index>"
+  std::vector<int> nodes;    ///< indices into Model::nodes, in order along the yarn (start to end)
+  std::vector<int> elements; ///< indices into Model::elements, in order along the yarn
+};
+
+/// Which contact formulation joins the warp and the weft (paper §5: both are studied).
+enum class ContactFormulation {
+  Spline, ///< beam-to-beam contact of C1 quadratic splines with circular sections
+  Surface ///< surface-to-surface contact of the elements' elliptical cylinders
 };
 
 /// A model built from yarns. Node sets per yarn: "warp<i>" (all its nodes), "warp<i>.start",
@@ -70,11 +77,13 @@ int append_yarn(Fabric& fabric, bool warp, std::span<const Eigen::Vector3d> poin
                 const std::vector<Eigen::Vector3d>& up);
 
 /// Adds the node sets listed at Fabric, one Spline per yarn (all its nodes, radius
-/// `contact_radius[y]` for yarn y) and, when both directions have yarns, the spline contact
-/// "warp-weft" between the warp and the weft splines with `law`, no self contact and a
-/// broad-phase margin equal to the largest radius.
+/// `contact_radius[y]` for yarn y), one Surface per yarn (its elements, the semi-axes of their
+/// section's contact ellipse) and, when both directions have yarns, the contact "warp-weft"
+/// between the warp and the weft yarns with `law`: spline contact (no self contact, broad-phase
+/// margin the largest radius) or surface contact (margin the larger semi-axis).
 void finish_fabric(Fabric& fabric, std::span<const double> contact_radius,
-                   const InterfaceLawParameters& law);
+                   const InterfaceLawParameters& law,
+                   ContactFormulation formulation = ContactFormulation::Spline);
 
 /// "warp<i>" or "weft<i>".
 std::string yarn_name(const Yarn& yarn);

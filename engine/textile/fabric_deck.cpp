@@ -74,6 +74,7 @@ constexpr KeySpec kBiaxialKeys[] = {
 constexpr TableSpec kBiaxial{"[biaxial]", kBiaxialKeys};
 
 constexpr KeySpec kContactKeys[] = {
+    {"type", Type::String},
     {"law", Type::String},
     {"penalty", Type::Number, kOptional, kPositive},
     {"exponent", Type::Number, kOptional, kAtLeastOne},
@@ -185,10 +186,14 @@ public:
     const CheckedTable* biaxial = root_.table("biaxial");
     const CheckedTable* contact = root_.table("contact");
     std::optional<WeaveParameters> weave = fabric ? weave_parameters(*fabric) : std::nullopt;
+    const ContactFormulation formulation =
+        contact ? contact_formulation(*contact) : ContactFormulation::Spline;
     const InterfaceLawParameters law =
-        contact ? contact_law(*contact) : WeaveParameters().contact_law;
-    if (weave)
+        contact ? contact_law(*contact, formulation) : default_law(formulation);
+    if (weave) {
       weave->contact_law = law;
+      weave->contact = formulation;
+    }
     std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
     if (!weave || !test || !diagnostics_.empty())
       return {};
@@ -290,9 +295,28 @@ private:
     return p;
   }
 
+  /// The paper's law of each formulation: linear, 1.5e6 N/m (spline), 3.5e5 N/m (surface).
+  static InterfaceLawParameters default_law(ContactFormulation formulation) {
+    return {formulation == ContactFormulation::Spline ? 1.5e6 : 3.5e5, 1.0, 0.0};
+  }
+
+  /// The [contact] type: "spline" (default) or "surface".
+  ContactFormulation contact_formulation(const CheckedTable& t) {
+    static constexpr std::string_view kTypes[] = {"spline", "surface"};
+    const std::string type = t.string("type").value_or("spline");
+    if (type == "surface")
+      return ContactFormulation::Surface;
+    if (type != "spline" && t.valid("type"))
+      t.error("type", fmt::format("expected \"spline\" (beam-to-beam contact of C1 splines) or "
+                                  "\"surface\" (surface-to-surface contact of elliptical "
+                                  "cylinders), found \"{}\"{}",
+                                  type, suggestion_text(type, kTypes)));
+    return ContactFormulation::Spline;
+  }
+
   /// The [contact] law; its problems are reported (the returned law is then a placeholder).
-  InterfaceLawParameters contact_law(const CheckedTable& t) {
-    InterfaceLawParameters out = WeaveParameters().contact_law;
+  InterfaceLawParameters contact_law(const CheckedTable& t, ContactFormulation formulation) {
+    InterfaceLawParameters out = default_law(formulation);
     static constexpr std::string_view kLaws[] = {"linear", "power"};
     const std::string law = t.string("law").value_or("linear");
     if (t.present("law") && !t.valid("law"))

@@ -184,7 +184,7 @@ Fabric build_weave(const WeaveParameters& p) {
   }
   const double r = p.contact_radius > 0 ? p.contact_radius : p.b;
   const std::vector<double> radii(fabric.yarns.size(), r);
-  finish_fabric(fabric, radii, p.contact_law);
+  finish_fabric(fabric, radii, p.contact_law, p.contact);
   return fabric;
 }
 

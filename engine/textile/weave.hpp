@@ -43,8 +43,11 @@ struct WeaveParameters {
   /// 3-node elements per crossing interval (paper 4: 36 elements per yarn of 9 spacings); the
   /// straight ends get as many per spacing, at least one.
   int elements_per_spacing = 4;
-  /// Normal law of the warp-weft spline contact (paper: linear, 1.5e6 N/m).
+  /// Normal law of the warp-weft contact (paper: linear, 1.5e6 N/m for the spline contact,
+  /// 3.5e5 N/m for the surface contact).
   InterfaceLawParameters contact_law{1.5e6, 1.0, 0.0};
+  /// Which contact joins warp and weft; each yarn gets both a spline and a surface.
+  ContactFormulation contact = ContactFormulation::Spline;
 };
 
 /// The paper's fabric (formulation.md §1): 6 + 6 yarns, plain weave, spacing 4.54545 mm, length

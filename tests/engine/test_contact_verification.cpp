@@ -1,5 +1,6 @@
-// Spline contact in the engine: the crossing-beams case of shared/docs/verification.md
-// (F_c = P / (2 + k / eps)), and a yarn pulled along another across many segment boundaries.
+// Contact in the engine: the crossing-beams case of shared/docs/verification.md
+// (F_c = P / (2 + k / eps)) with the spline contact (circular sections) and the surface contact
+// (elliptical sections), and a yarn pulled along another across many segment boundaries.
 #include "beam_models.hpp"
 #include "engine/solver/simulation.hpp"
 
@@ -98,6 +99,74 @@ TEST(ContactVerification, CrossingBeamsClampedMatchTheClosedForm) {
     std::printf("clamped-clamped, eps %.0e: F_c %.6f (closed form %.6f, %+.3f %%)\n", eps, got,
                 expected, 100 * (got / expected - 1));
     EXPECT_NEAR(got, expected, 0.005 * expected) << "eps " << eps;
+  }
+}
+
+/// The crossing beams with elliptical sections (semi-axes a in the beams' plane, b vertical:
+/// flat sides facing) and the surface-to-surface contact. Bending under the vertical load is about
+/// section axis 1, EI1 = E pi a b^3 / 4.
+Crossing elliptical_crossing_beams(double eps, int n_el, double a, double b) {
+  const double E = 1e9, L = 1.0, P = 1.0;
+  const double A = std::numbers::pi * a * b;
+  Section s = test::stiffness_section(E * A, 1e3 * E * A, 0, 1e3 * E * A * a * a);
+  s.EI1 = E * std::numbers::pi * a * b * b * b / 4;
+  s.EI2 = E * std::numbers::pi * a * a * a * b / 4;
+  s.shape = SectionShape::Ellipse;
+  s.a = a;
+  s.b = b;
+  Crossing c = crossing_beams(eps, false, n_el);
+  Model& m = c.model;
+  m.sections = {s};
+  // Centre lines 2 b apart: the flat sides touch.
+  for (int i = 0; i <= 2 * n_el; ++i)
+    m.nodes[i].z() = 2 * b;
+  m.splines.clear();
+  m.spline_contacts.clear();
+  Surface top{"top", {}, a, b, 2.0}, bottom{"bottom", {}, a, b, 2.0};
+  for (int e = 0; e < n_el; ++e) {
+    top.elements.push_back(e);
+    bottom.elements.push_back(n_el + e);
+  }
+  m.surfaces = {top, bottom};
+  m.surface_contacts.push_back(SurfaceContactDefinition{"cross", {0}, {1}, {eps, 1.0, 0.0}, 0});
+  return c;
+}
+
+TEST(ContactVerification, EllipticalCrossingBeamsWithSurfaceContactMatchTheClosedForm) {
+  const double a = 0.02, b = 0.01;
+  const double EI = 1e9 * std::numbers::pi * a * b * b * b / 4, k = 48 * EI;
+  for (const double eps : {1e3, 1e4, 1e5, 1e6}) {
+    for (const int n_el : {33, 32}) { // the contact on a shared node, and mid-element
+      Crossing c = elliptical_crossing_beams(eps, n_el, a, b);
+      Simulation sim(c.model);
+      sim.run();
+      const double expected = 1.0 / (2 + k / eps);
+      const double got = contact_force(sim);
+      const auto points = sim.contact()->points();
+      std::printf("ellipses, %d elements, eps %.0e: F_c %.6f (closed form %.6f, %+.3f %%), %d "
+                  "point(s), %d iterations\n",
+                  n_el, eps, got, expected, 100 * (got / expected - 1), sim.contact()->active(),
+                  sim.total_iterations());
+      EXPECT_NEAR(got, expected, 0.005 * expected) << "eps " << eps << ", " << n_el << " elements";
+      // One contact; on a shared node, where the bottom beam's surface has a valley, the pairs of
+      // its two elements share it (both points are reported, with their shares of the force).
+      EXPECT_EQ(sim.contact()->active(), 1) << "eps " << eps;
+      ASSERT_GE(points.size(), 1u);
+      ASSERT_LE(points.size(), 2u);
+      for (const ContactPoint& point : points) {
+        // Where geometry puts it: at the crossing of the axes; the normal is vertical (from the
+        // bottom beam B to the top beam A). Each beam slides at one end, so its mid-span moves
+        // along its axis by about half its shortening, w^2 / L ~ 1e-6 m here.
+        EXPECT_NEAR(point.position.x(), 0.0, 1e-5);
+        EXPECT_NEAR(point.position.y(), 0.0, 1e-5);
+        // Height: the bottom beam's top (b) less its deflection F_c / k and half the
+        // penetration.
+        EXPECT_NEAR(point.position.z(), b - got / k - 0.5 * got / eps, 1e-5);
+        // The normal tilts with the slope of the surface it belongs to (below 1e-3 here).
+        EXPECT_NEAR(point.normal.z(), 1.0, 1e-3);
+        EXPECT_NEAR(-point.gap, expected / eps, 0.005 * expected / eps);
+      }
+    }
   }
 }
 

@@ -790,18 +790,75 @@ TEST(DeckSplines, GroupsAreGivenOneWay) {
 }
 
 TEST(DeckSplines, ContactTypeIsChecked) {
-  std::string deck = replace(kSplines, "type = \"spline\"", "type = \"spilne\"");
-  auto errors = errors_of(deck);
+  const std::string deck = replace(kSplines, "type = \"spline\"", "type = \"spilne\"");
+  const auto errors = errors_of(deck);
   ASSERT_EQ(errors.size(), 1u) << joined(errors);
   EXPECT_EQ(errors[0], where(deck, "\"spilne\"") +
-                           "contacts[0].type: expected \"spline\" (beam-to-beam spline contact, "
-                           "the only type so far), found \"spilne\"; did you mean \"spline\"?");
+                           "contacts[0].type: expected \"spline\" (beam-to-beam contact of C1 "
+                           "splines) or \"surface\" (surface-to-surface contact of elliptical "
+                           "cylinders), found \"spilne\"; did you mean \"spline\"?");
+}
 
-  deck = replace(kSplines, "type = \"spline\"", "type = \"surface\"");
-  errors = errors_of(deck);
-  ASSERT_EQ(errors.size(), 1u) << joined(errors);
-  EXPECT_NE(errors[0].find("surface-to-surface contact is not available yet"), std::string::npos)
-      << errors[0];
+// kSplines with surfaces on the crossing line (a circle section) and on the first beam (a
+// stiffness section, so the semi-axes are given), and a surface contact between them.
+const std::string kSurfaces = kSplines + R"(
+[[surfaces]]
+name = "cross"
+node_set = "cross"
+
+[[surfaces]]
+name = "rod"
+node_set = "backwards"
+a = 0.02
+b = 0.01
+exponent = 4
+
+[[contacts]]
+name = "surf"
+type = "surface"
+between = ["rod", "cross"]
+penalty = 3.5e5
+)";
+
+TEST(DeckSurfaces, SurfacesAndSurfaceContactsResolveToIndices) {
+  const Model m = read_deck_string(kSurfaces, "deck.toml");
+  ASSERT_EQ(m.surfaces.size(), 2u);
+  // The [[lines]] elements follow the two [[elements]]; semi-axes from the circle section.
+  EXPECT_EQ(m.surfaces[0].name, "cross");
+  EXPECT_EQ(m.surfaces[0].elements, (std::vector<int>{2, 3}));
+  EXPECT_DOUBLE_EQ(m.surfaces[0].a, 0.01);
+  EXPECT_DOUBLE_EQ(m.surfaces[0].b, 0.01);
+  EXPECT_DOUBLE_EQ(m.surfaces[0].exponent, 2.0);
+  // A set written against the elements' direction is walked along them.
+  EXPECT_EQ(m.surfaces[1].elements, (std::vector<int>{0, 1}));
+  EXPECT_DOUBLE_EQ(m.surfaces[1].a, 0.02);
+  EXPECT_DOUBLE_EQ(m.surfaces[1].b, 0.01);
+  EXPECT_DOUBLE_EQ(m.surfaces[1].exponent, 4.0);
+  ASSERT_EQ(m.surface_contacts.size(), 1u);
+  EXPECT_EQ(m.surface_contacts[0].name, "surf");
+  EXPECT_EQ(m.surface_contacts[0].group_a, std::vector<int>{1});
+  EXPECT_EQ(m.surface_contacts[0].group_b, std::vector<int>{0});
+  EXPECT_DOUBLE_EQ(m.surface_contacts[0].law.penalty, 3.5e5);
+  EXPECT_EQ(m.spline_contacts.size(), 2u);
+}
+
+TEST(DeckSurfaces, AllSurfaceErrorsAreReportedAtOnce) {
+  // A stiffness section without semi-axes, an unknown surface name, a single group.
+  std::string deck = replace(kSurfaces, "a = 0.02\nb = 0.01\n", "");
+  deck = replace(deck, "between = [\"rod\", \"cross\"]", "between = [[\"rod\", \"crosss\"]]");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 4u) << joined(errors);
+  EXPECT_NE(joined(errors).find("surfaces[1]: missing required key 'a' (semi-axis of the contact "
+                                "section, m): the elements' section 'beam' gives stiffnesses, not "
+                                "a shape"),
+            std::string::npos)
+      << joined(errors);
+  EXPECT_NE(joined(errors).find("missing required key 'b'"), std::string::npos) << joined(errors);
+  EXPECT_NE(joined(errors).find("no surface named 'crosss'; did you mean 'cross'?"),
+            std::string::npos)
+      << joined(errors);
+  EXPECT_NE(joined(errors).find("expected two groups of surfaces, found one"), std::string::npos)
+      << joined(errors);
 }
 
 TEST(DeckSplines, AllSplineAndContactErrorsAreReportedAtOnce) {
