@@ -76,6 +76,16 @@ Eigen::Vector3d solve_free(const Eigen::Matrix3d& Q, const Eigen::Vector3d& J,
   return I.ldlt().solve(b);
 }
 
+/// v rotated by the rotation vector theta (Rodrigues' formula; 1 - cos a as 2 sin^2(a/2)).
+Eigen::Vector3d rotated(const Eigen::Vector3d& v, const Eigen::Vector3d& theta) {
+  const double a = theta.norm();
+  if (a < 1e-300)
+    return v;
+  const Eigen::Vector3d k = theta / a;
+  const double s = std::sin(0.5 * a);
+  return v + std::sin(a) * k.cross(v) + (2 * s * s) * k.cross(k.cross(v));
+}
+
 /// The spatial angular velocity omega of a step h that carries the spatial angular momentum pi
 /// through the midpoint triad exp(h/2 omega) Q_n. Fixed-point iteration (its rate is about
 /// h |omega|) from omega; false when it does not converge.
@@ -85,6 +95,22 @@ bool midpoint_angular_velocity(const Eigen::Matrix3d& Q_n, const Eigen::Vector3d
   if (!free[0] && !free[1] && !free[2]) {
     omega.setZero();
     return true;
+  }
+  if (free[0] && free[1] && free[2]) {
+    // R = exp(h/2 omega) leaves omega fixed, so (R Q_n) J (R Q_n)^T omega = R (Q_n J Q_n^T) omega
+    // and the fixed point is omega = Q_n J^-1 Q_n^T R(omega)^T pi: one rotation of a vector per
+    // iteration instead of a rotation matrix and a triad product.
+    for (int it = 0; it < 50; ++it) {
+      const Eigen::Vector3d next =
+          Q_n * (Q_n.transpose() * rotated(pi, -0.5 * h * omega)).cwiseQuotient(J);
+      const double change = (next - omega).norm();
+      omega = next;
+      if (!std::isfinite(change))
+        return false;
+      if (change <= 1e-14 * omega.norm())
+        return true;
+    }
+    return false;
   }
   for (int it = 0; it < 50; ++it) {
     const Eigen::Vector3d next = solve_free(rotation_matrix(0.5 * h * omega) * Q_n, J, pi, free);

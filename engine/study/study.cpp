@@ -74,10 +74,12 @@ const char* path_name(StudyPath p) {
   return p == StudyPath::Explicit ? "explicit" : p == StudyPath::Implicit ? "implicit" : "deck";
 }
 
-/// The case's fabric deck with [biaxial] type set for `path` (as the deck says for Deck). The
-/// deck is parsed here rather than by read_deck so the type can be changed before the model is
-/// built; its problems are reported as read_deck does. Throws InputError.
+/// The case's deck, for a fabric deck with [biaxial] type set for `path` (as the deck says for
+/// Deck). A fabric deck is parsed here rather than by read_deck so the type can be changed before
+/// the model is built; its problems are reported as read_deck does. Throws InputError.
 Model read_case_deck(const std::filesystem::path& file, StudyPath path) {
+  if (path == StudyPath::Deck)
+    return read_deck(file);
   deck::Diagnostics diagnostics(file.string());
   toml::table table;
   try {
@@ -88,22 +90,27 @@ Model read_case_deck(const std::filesystem::path& file, StudyPath path) {
   }
   toml::table* biaxial = table["biaxial"].as_table();
   if (!table.contains("fabric") || biaxial == nullptr)
-    throw InputError({fmt::format("{}: expected a fabric deck with [fabric] and [biaxial] blocks "
-                                  "(a study runs biaxial tests), found neither",
-                                  file.string())});
-  if (path != StudyPath::Deck) {
-    const std::string type = biaxial->get("type") && biaxial->get("type")->as_string()
-                                 ? biaxial->get("type")->as_string()->get()
-                                 : std::string("dynamic");
-    if (path == StudyPath::Explicit)
-      biaxial->insert_or_assign("type", "explicit");
-    else if (type != "static" && type != "dynamic")
-      biaxial->insert_or_assign("type", "dynamic");
-  }
+    throw InputError({fmt::format("{}: a case with 'paths' needs a fabric deck with [fabric] and "
+                                  "[biaxial] blocks, found {}",
+                                  file.string(),
+                                  table.contains("fabric") ? "no [biaxial]"
+                                  : biaxial                ? "no [fabric]"
+                                                           : "neither")});
+  const toml::node* type = biaxial->get("type");
+  const std::string given =
+      type && type->as_string() ? type->as_string()->get() : std::string("dynamic");
+  if (path == StudyPath::Explicit)
+    biaxial->insert_or_assign("type", "explicit");
+  else if (given != "static" && given != "dynamic")
+    biaxial->insert_or_assign("type", "dynamic");
   std::optional<Model> model = textile::read_fabric_deck(table, diagnostics);
   if (!diagnostics.empty() || !model)
     throw InputError(diagnostics.messages());
   return std::move(*model);
+}
+
+const char* type_name(StepType t) {
+  return t == StepType::Explicit ? "explicit" : t == StepType::Static ? "static" : "dynamic";
 }
 
 /// Linear interpolation of y(x) at x0 on increasing x; NaN outside the range of x.
@@ -142,8 +149,6 @@ Study read_study(const std::filesystem::path& file) {
     sc.deck = dir / deck_path;
     if (auto paths = c.words("paths")) {
       sc.paths.clear();
-      if (paths->empty())
-        c.error("paths", "expected \"implicit\", \"explicit\" or both, found an empty list");
       for (std::size_t i = 0; i < paths->size(); ++i) {
         const std::string& p = (*paths)[i];
         const StudyPath path = p == "implicit"   ? StudyPath::Implicit
@@ -205,9 +210,8 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
       run.output_dir = options.output_dir / folder;
       run.deck_text = read_text(c.deck);
       if (path != StudyPath::Deck)
-        run.deck_text =
-            fmt::format("# run by a study on the {} path: [biaxial] type = \"{}\"\n{}", taken,
-                        is_explicit ? "explicit" : "as below, or dynamic", run.deck_text);
+        run.deck_text = fmt::format("# run by a study on the {} path: [biaxial] type = \"{}\"\n{}",
+                                    taken, type_name(model.steps.back().type), run.deck_text);
       run.deck_path = c.deck.string();
       run.threads = options.threads;
       run.linear_solver = options.linear_solver;
@@ -330,11 +334,7 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
     summary << d.c->name << ',' << d.c->label << ',' << d.path << ',' << format_k(d.k) << ','
             << fmt::format("{:.3f}", d.summary.wall_seconds) << ',' << d.summary.increments << ','
             << d.summary.iterations << ','
-            << (is_explicit
-                    ? optional(d.scaling.dt > 0 ? std::min(step.dt_initial, d.scaling.stable_dt)
-                                                : step.dt_initial)
-                    : std::string())
-            << ','
+            << (is_explicit ? optional(step.dt_initial) : std::string()) << ','
             << (is_explicit && step.mass_scaling_dt > 0 ? optional(step.mass_scaling_dt) : "")
             << ',' << (is_explicit ? optional(d.scaling.added_mass_percent) : "") << ','
             << optional(ratio) << ',' << optional(difference) << ','
@@ -387,7 +387,8 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
           options.output_dir / (by_path ? fmt::format("contact-forces-{}-{}.png", name, d.path)
                                         : fmt::format("contact-forces-{}.png", name));
       plots::contact_map(yarns, xyz, f,
-                         fmt::format("{}: normal contact forces at the end ({} points, largest "
+                         // Two lines ("\\n": gnuplot's escape in a double-quoted string).
+                         fmt::format("{}: normal contact forces at the end\\n({} points, largest "
                                      "{:.2f} N, total {:.1f} N)",
                                      d.label, pts.size(), f.size() ? f.maxCoeff() : 0.0, total),
                          png);

@@ -4,7 +4,6 @@
 #include "engine/textile/weave.hpp"
 
 #include <algorithm>
-
 #include <fmt/format.h>
 #include <stdexcept>
 
