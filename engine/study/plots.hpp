@@ -18,7 +18,8 @@ struct CurveSet {
   std::vector<double> force_weft;  ///< N
 };
 
-/// Force against strain, warp solid and weft dashed, one colour per curve set. Throws
+/// Force against strain, warp solid and weft dashed, one colour per curve set, each set wider
+/// than the next so that coinciding curves stay visible. Throws
 /// std::runtime_error when gnuplot is missing or fails.
 void force_strain(const std::vector<CurveSet>& sets, const std::string& title,
                   const std::filesystem::path& png);

@@ -5,10 +5,13 @@
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/study/plots.hpp"
+#include "engine/textile/fabric_deck.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -25,6 +28,7 @@ constexpr KeySpec kCaseKeys[] = {
     {"name", Type::String, deck::kRequired},
     {"label", Type::String},
     {"deck", Type::String, deck::kRequired},
+    {"paths", Type::Words},
 };
 constexpr TableSpec kCaseSpec{"[[cases]]", kCaseKeys};
 constexpr KeySpec kStudyKeys[] = {
@@ -66,6 +70,60 @@ std::string format_k(double k) {
   return fmt::format("{:g}", k);
 }
 
+const char* path_name(StudyPath p) {
+  return p == StudyPath::Explicit ? "explicit" : p == StudyPath::Implicit ? "implicit" : "deck";
+}
+
+/// The case's deck, for a fabric deck with [biaxial] type set for `path` (as the deck says for
+/// Deck). A fabric deck is parsed here rather than by read_deck so the type can be changed before
+/// the model is built; its problems are reported as read_deck does. Throws InputError.
+Model read_case_deck(const std::filesystem::path& file, StudyPath path) {
+  if (path == StudyPath::Deck)
+    return read_deck(file);
+  deck::Diagnostics diagnostics(file.string());
+  toml::table table;
+  try {
+    table = toml::parse_file(file.string());
+  } catch (const toml::parse_error& e) {
+    diagnostics.error(e.source(), "", fmt::format("syntax error: {}", e.description()));
+    throw InputError(diagnostics.messages());
+  }
+  toml::table* biaxial = table["biaxial"].as_table();
+  if (!table.contains("fabric") || biaxial == nullptr)
+    throw InputError({fmt::format("{}: a case with 'paths' needs a fabric deck with [fabric] and "
+                                  "[biaxial] blocks, found {}",
+                                  file.string(),
+                                  table.contains("fabric") ? "no [biaxial]"
+                                  : biaxial                ? "no [fabric]"
+                                                           : "neither")});
+  const toml::node* type = biaxial->get("type");
+  const std::string given =
+      type && type->as_string() ? type->as_string()->get() : std::string("dynamic");
+  if (path == StudyPath::Explicit)
+    biaxial->insert_or_assign("type", "explicit");
+  else if (given != "static" && given != "dynamic")
+    biaxial->insert_or_assign("type", "dynamic");
+  std::optional<Model> model = textile::read_fabric_deck(table, diagnostics);
+  if (!diagnostics.empty() || !model)
+    throw InputError(diagnostics.messages());
+  return std::move(*model);
+}
+
+const char* type_name(StepType t) {
+  return t == StepType::Explicit ? "explicit" : t == StepType::Static ? "static" : "dynamic";
+}
+
+/// Linear interpolation of y(x) at x0 on increasing x; NaN outside the range of x.
+double interpolate(const std::vector<double>& x, const std::vector<double>& y, double x0) {
+  for (std::size_t i = 1; i < x.size(); ++i)
+    if (x[i] >= x0 && x[i - 1] <= x0) {
+      const double span = x[i] - x[i - 1];
+      const double w = span > 0 ? (x0 - x[i - 1]) / span : 1.0;
+      return (1 - w) * y[i - 1] + w * y[i];
+    }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 } // namespace
 
 Study read_study(const std::filesystem::path& file) {
@@ -89,6 +147,22 @@ Study read_study(const std::filesystem::path& file) {
     sc.label = c.string("label").value_or(sc.name);
     const std::string deck_path = c.string("deck").value_or("");
     sc.deck = dir / deck_path;
+    if (auto paths = c.words("paths")) {
+      sc.paths.clear();
+      for (std::size_t i = 0; i < paths->size(); ++i) {
+        const std::string& p = (*paths)[i];
+        const StudyPath path = p == "implicit"   ? StudyPath::Implicit
+                               : p == "explicit" ? StudyPath::Explicit
+                                                 : StudyPath::Deck;
+        if (path == StudyPath::Deck)
+          c.error("paths", i,
+                  fmt::format("expected \"implicit\" or \"explicit\", found \"{}\"", p));
+        else if (std::find(sc.paths.begin(), sc.paths.end(), path) != sc.paths.end())
+          c.error("paths", i, fmt::format("\"{}\" is listed twice", p));
+        else
+          sc.paths.push_back(path);
+      }
+    }
     if (!deck_path.empty() && !std::filesystem::exists(sc.deck))
       c.error("deck", fmt::format("no such deck: {}", sc.deck.string()));
     for (const StudyCase& other : study.cases)
@@ -110,71 +184,182 @@ Study read_study(const std::filesystem::path& file) {
 
 StudyOutcome run_study(const Study& study, const StudyOptions& options) {
   StudyOutcome outcome;
+  // One completed run of a case on one path.
   struct Done {
     const StudyCase* c;
+    std::string path;   ///< "implicit" or "explicit": the step the run took
+    std::string folder; ///< under output_dir
+    std::string label;  ///< legend
     double k;
-    double seconds;
     RunSummary summary;
     Model model;
+    ExplicitStatus scaling; ///< explicit runs: stable step and mass scaling at the start
   };
   std::vector<Done> done;
   for (const StudyCase& c : study.cases) {
-    Model model = read_deck(c.deck);
-    if (!model.biaxial)
-      throw InputError({fmt::format("{}: case '{}' is not a biaxial test (no [biaxial] block)",
-                                    c.deck.string(), c.name)});
-    RunOptions run;
-    run.output_dir = options.output_dir / c.name;
-    run.deck_text = read_text(c.deck);
-    run.deck_path = c.deck.string();
-    run.threads = options.threads;
-    run.linear_solver = options.linear_solver;
-    run.progress = options.progress;
-    run.stop_requested = options.stop_requested;
-    fmt::print(stderr, "case {} ({}), deck {}\n", c.name, c.label, c.deck.string());
-    try {
-      RunSummary s = run_model(model, run);
-      const double k = model.biaxial->strain_ratio;
-      done.push_back({&c, k, s.wall_seconds, std::move(s), std::move(model)});
-      ++outcome.completed;
-    } catch (const Interrupted&) {
-      throw;
-    } catch (const std::exception& e) {
-      outcome.failures.push_back(fmt::format("{}: {}", c.name, e.what()));
-      fmt::print(stderr, "case {} stopped: {}\n", c.name, e.what());
+    const bool by_path = c.paths.size() > 1 || c.paths.front() != StudyPath::Deck;
+    for (StudyPath path : c.paths) {
+      Model model = read_case_deck(c.deck, path);
+      if (!model.biaxial)
+        throw InputError({fmt::format("{}: case '{}' is not a biaxial test (no [biaxial] block)",
+                                      c.deck.string(), c.name)});
+      const bool is_explicit = model.steps.back().type == StepType::Explicit;
+      const std::string taken = is_explicit ? "explicit" : "implicit";
+      const std::string folder = by_path ? fmt::format("{}/{}", c.name, path_name(path)) : c.name;
+      RunOptions run;
+      run.output_dir = options.output_dir / folder;
+      run.deck_text = read_text(c.deck);
+      if (path != StudyPath::Deck)
+        run.deck_text = fmt::format("# run by a study on the {} path: [biaxial] type = \"{}\"\n{}",
+                                    taken, type_name(model.steps.back().type), run.deck_text);
+      run.deck_path = c.deck.string();
+      run.threads = options.threads;
+      run.linear_solver = options.linear_solver;
+      run.progress = options.progress;
+      run.stop_requested = options.stop_requested;
+      fmt::print(stderr, "case {} ({}){}, deck {}\n", c.name, c.label,
+                 by_path ? fmt::format(" on the {} path", taken) : std::string(), c.deck.string());
+      try {
+        ExplicitStatus scaling;
+        if (is_explicit)
+          scaling = Simulation(model).explicit_stability(model.steps.back());
+        RunSummary s = run_model(model, run);
+        const double k = model.biaxial->strain_ratio;
+        const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
+        done.push_back({&c, taken, folder, label, k, std::move(s), std::move(model), scaling});
+        ++outcome.completed;
+      } catch (const Interrupted&) {
+        throw;
+      } catch (const std::exception& e) {
+        const std::string what = by_path ? fmt::format("{} ({})", c.name, taken) : c.name;
+        outcome.failures.push_back(fmt::format("{}: {}", what, e.what()));
+        fmt::print(stderr, "case {} stopped: {}\n", what, e.what());
+      }
     }
   }
 
-  // All curves in one file, long format.
+  // All curves in one file, long format; the curves of each run for the plots and the summary.
   std::ofstream all(options.output_dir / "curves.csv");
-  all << "case,label,k,time [s],strain_warp [-],strain_weft [-],force_warp [N],force_weft [N]\n";
-  std::map<double, std::vector<plots::CurveSet>> by_k;
-  for (const Done& d : done) {
-    const auto cols = read_csv(options.output_dir / d.c->name / "curves.csv");
-    if (cols.size() < 5)
-      continue;
-    plots::CurveSet set{fmt::format("{} ({:.1f} s)", d.c->label, d.seconds), {}, {}, {}, {}};
+  all << "case,label,path,k,time [s],strain_warp [-],strain_weft [-],force_warp [N],force_weft "
+         "[N]\n";
+  std::vector<plots::CurveSet> sets(done.size());
+  std::vector<std::vector<double>> times(done.size());
+  for (std::size_t r = 0; r < done.size(); ++r) {
+    const Done& d = done[r];
+    const auto cols = read_csv(options.output_dir / d.folder / "curves.csv");
+    plots::CurveSet& set = sets[r];
+    set.label = fmt::format("{} ({:.1f} s, {} increments)", d.label, d.summary.wall_seconds,
+                            d.summary.increments);
     // The curves start at the undeformed state.
     set.strain_warp.push_back(0);
     set.strain_weft.push_back(0);
     set.force_warp.push_back(0);
     set.force_weft.push_back(0);
+    times[r].push_back(0);
+    if (cols.size() < 5)
+      continue;
     for (std::size_t i = 0; i < cols[0].size(); ++i) {
-      all << d.c->name << ',' << d.c->label << ',' << format_k(d.k) << ',' << cols[0][i] << ','
-          << cols[1][i] << ',' << cols[2][i] << ',' << cols[3][i] << ',' << cols[4][i] << '\n';
+      all << d.c->name << ',' << d.c->label << ',' << d.path << ',' << format_k(d.k) << ','
+          << cols[0][i] << ',' << cols[1][i] << ',' << cols[2][i] << ',' << cols[3][i] << ','
+          << cols[4][i] << '\n';
+      times[r].push_back(cols[0][i]);
       set.strain_warp.push_back(cols[1][i]);
       set.strain_weft.push_back(cols[2][i]);
       set.force_warp.push_back(cols[3][i]);
       set.force_weft.push_back(cols[4][i]);
     }
-    by_k[d.k].push_back(std::move(set));
   }
   all.close();
 
-  for (const auto& [k, sets] : by_k) {
+  // Per run: cost, mass scaling, and past the toe (strain >= kToe x its final nominal value in
+  // each direction) the largest kinetic/internal energy ratio and the largest difference of the
+  // force to the implicit run of the same case at equal strain.
+  constexpr double kToe = 0.2;
+  std::ofstream summary(options.output_dir / "summary.csv");
+  summary << "case,label,path,k,wall_time [s],increments [-],newton_iterations [-],dt [s],"
+             "mass_scaling_dt [s],added_mass [%],max_kinetic/internal_past_toe [-],"
+             "max_difference_to_implicit_past_toe [%],force_warp_end [N],force_weft_end [N]\n";
+  auto optional = [](double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : ""; };
+  for (std::size_t r = 0; r < done.size(); ++r) {
+    const Done& d = done[r];
+    const plots::CurveSet& set = sets[r];
+    const auto [eps_warp, eps_weft] = [&] {
+      const double m = d.model.biaxial->max_strain;
+      return d.k >= 1 ? std::pair{m, m / d.k} : std::pair{d.k * m, m};
+    }();
+    const bool is_explicit = d.path == "explicit";
+    double ratio = std::numeric_limits<double>::quiet_NaN();
+    if (is_explicit && std::filesystem::exists(options.output_dir / d.folder / "energy.csv")) {
+      // The toe ends when the more strained direction passes kToe of its final strain.
+      const std::vector<double>& main = d.k >= 1 ? set.strain_warp : set.strain_weft;
+      const double toe = kToe * std::max(eps_warp, eps_weft);
+      double t_toe = std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < main.size(); ++i)
+        if (main[i] >= toe) {
+          t_toe = times[r][i];
+          break;
+        }
+      const auto energy = read_csv(options.output_dir / d.folder / "energy.csv");
+      if (energy.size() >= 9) {
+        ratio = 0;
+        for (std::size_t i = 0; i < energy[0].size(); ++i)
+          if (energy[0][i] >= t_toe * (1 - 1e-12))
+            ratio = std::max(ratio, energy[8][i]);
+      }
+    }
+    double difference = std::numeric_limits<double>::quiet_NaN();
+    const Done* implicit = nullptr;
+    for (const Done& o : done)
+      if (o.c == d.c && o.path == "implicit")
+        implicit = &o;
+    if (is_explicit && implicit) {
+      const plots::CurveSet& ref = sets[implicit - done.data()];
+      difference = 0;
+      for (int dir = 0; dir < 2; ++dir) {
+        const auto& s = dir == 0 ? set.strain_warp : set.strain_weft;
+        const auto& f = dir == 0 ? set.force_warp : set.force_weft;
+        const auto& s_ref = dir == 0 ? ref.strain_warp : ref.strain_weft;
+        const auto& f_ref = dir == 0 ? ref.force_warp : ref.force_weft;
+        const double toe = kToe * (dir == 0 ? eps_warp : eps_weft);
+        for (std::size_t i = 0; i < s.size(); ++i) {
+          if (s[i] < toe)
+            continue;
+          const double f0 = interpolate(s_ref, f_ref, s[i]);
+          if (std::isfinite(f0) && f0 != 0)
+            difference = std::max(difference, 100 * std::abs(f[i] - f0) / std::abs(f0));
+        }
+      }
+    }
+    const SolutionStep& step = d.model.steps.back();
+    summary << d.c->name << ',' << d.c->label << ',' << d.path << ',' << format_k(d.k) << ','
+            << fmt::format("{:.3f}", d.summary.wall_seconds) << ',' << d.summary.increments << ','
+            << d.summary.iterations << ','
+            << (is_explicit ? optional(step.dt_initial) : std::string()) << ','
+            << (is_explicit && step.mass_scaling_dt > 0 ? optional(step.mass_scaling_dt) : "")
+            << ',' << (is_explicit ? optional(d.scaling.added_mass_percent) : "") << ','
+            << optional(ratio) << ',' << optional(difference) << ','
+            << optional(set.force_warp.back()) << ',' << optional(set.force_weft.back()) << '\n';
+    fmt::print(
+        stderr, "{}: {:.1f} s, {} increments{}{}{}\n", set.label.substr(0, set.label.rfind(" (")),
+        d.summary.wall_seconds, d.summary.increments,
+        is_explicit ? fmt::format(", mass scaling added {:.3g} %", d.scaling.added_mass_percent)
+                    : std::string(),
+        std::isfinite(ratio)
+            ? fmt::format(", kinetic/internal energy past the toe at most {:.3g}", ratio)
+            : std::string(),
+        std::isfinite(difference)
+            ? fmt::format(", force within {:.2f} % of the implicit run past the toe", difference)
+            : std::string());
+  }
+  summary.close();
+
+  std::map<double, std::vector<plots::CurveSet>> by_k;
+  for (std::size_t r = 0; r < done.size(); ++r)
+    by_k[done[r].k].push_back(sets[r]);
+  for (const auto& [k, k_sets] : by_k) {
     const auto png = options.output_dir / fmt::format("force-strain-k{}.png", format_k(k));
-    plots::force_strain(sets, fmt::format("{}: biaxial tension, k = {}", study.title, format_k(k)),
-                        png);
+    plots::force_strain(k_sets,
+                        fmt::format("{}: biaxial tension, k = {}", study.title, format_k(k)), png);
     outcome.plots.push_back(png);
   }
   for (const std::string& name : study.contact_maps)
@@ -197,11 +382,15 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
         f(i) = pts[i].force;
         total += f(i);
       }
-      const auto png = options.output_dir / fmt::format("contact-forces-{}.png", name);
+      const bool by_path = d.folder != name;
+      const auto png =
+          options.output_dir / (by_path ? fmt::format("contact-forces-{}-{}.png", name, d.path)
+                                        : fmt::format("contact-forces-{}.png", name));
       plots::contact_map(yarns, xyz, f,
-                         fmt::format("{}: normal contact forces at the end ({} points, largest "
+                         // Two lines ("\\n": gnuplot's escape in a double-quoted string).
+                         fmt::format("{}: normal contact forces at the end\\n({} points, largest "
                                      "{:.2f} N, total {:.1f} N)",
-                                     d.c->label, pts.size(), f.size() ? f.maxCoeff() : 0.0, total),
+                                     d.label, pts.size(), f.size() ? f.maxCoeff() : 0.0, total),
                          png);
       outcome.plots.push_back(png);
     }

@@ -13,10 +13,20 @@
 
 namespace yarnsim {
 
+/// The integration path a case runs on.
+enum class StudyPath {
+  Deck,     ///< as the deck says ([biaxial] type)
+  Implicit, ///< the deck's static or dynamic step; "dynamic" (Newmark) for an explicit deck
+  Explicit, ///< central difference with [biaxial.explicit]'s settings
+};
+
 struct StudyCase {
   std::string name;  ///< folder name of its results
   std::string label; ///< legend label, e.g. "Spline"
   std::filesystem::path deck;
+  /// One run per entry; {Deck} without a `paths` key. With several paths the runs go to
+  /// DIR/<name>/<path>/ and are labelled "<label>, <path>".
+  std::vector<StudyPath> paths{StudyPath::Deck};
 };
 
 struct Study {
@@ -43,9 +53,12 @@ struct StudyOutcome {
   std::vector<std::filesystem::path> plots;
 };
 
-/// Runs every case into output_dir/<case>, then writes output_dir/curves.csv (all cases),
-/// force-strain-k<k>.png per strain ratio and contact-forces-<case>.png. A case that fails is
-/// reported and the others go on; Interrupted stops the study.
+/// Runs every case (on each of its paths) into output_dir/<case> (output_dir/<case>/<path> for a
+/// case with `paths`), then writes output_dir/curves.csv (all runs), output_dir/summary.csv (wall
+/// time, increments, mass scaling, kinetic/internal energy and the difference to the implicit run
+/// of the same case, per run), force-strain-k<k>.png per strain ratio and
+/// contact-forces-<case>.png. A run that fails is reported and the others go on; Interrupted
+/// stops the study.
 StudyOutcome run_study(const Study& study, const StudyOptions& options);
 
 } // namespace yarnsim

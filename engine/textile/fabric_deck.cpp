@@ -3,6 +3,7 @@
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/weave.hpp"
 
+#include <algorithm>
 #include <fmt/format.h>
 #include <stdexcept>
 
@@ -57,11 +58,21 @@ constexpr KeySpec kNewmarkKeys[] = {
     {"gamma", Type::Number, kOptional, kNewmarkGamma},
 };
 constexpr TableSpec kNewmark{"newmark", kNewmarkKeys};
+constexpr KeySpec kExplicitKeys[] = {
+    {"dt", Type::Number, kOptional, kPositive},
+    {"mass_scaling_dt", Type::Number, kOptional, kNonNegative},
+    {"safety_factor", Type::Number, kOptional, kUnitHalfOpen},
+    {"stable_dt_every", Type::Integer, kOptional, kAtLeastOne},
+    {"output_every", Type::Integer, kOptional, kAtLeastOne},
+    {"energy_monitor", Type::Boolean},
+};
+constexpr TableSpec kExplicit{"explicit", kExplicitKeys};
 constexpr KeySpec kBiaxialKeys[] = {
     {"strain_ratio", Type::Number, kRequired, kPositive},
     {"max_strain", Type::Number, kOptional, kUnitOpen},
     {"loading_time", Type::Number, kOptional, kPositive},
     {"type", Type::String},
+    {"ramp", Type::String},
     {"dt", Type::Number, kOptional, kPositive},
     {"dt_min", Type::Number, kOptional, kPositive},
     {"dt_max", Type::Number, kOptional, kPositive},
@@ -70,6 +81,7 @@ constexpr KeySpec kBiaxialKeys[] = {
     {"newmark", Type::Table, kOptional, kAnyValue, &kNewmark},
     {"output_every", Type::Integer, kOptional, kAtLeastOne},
     {"monitors", Type::Boolean},
+    {"explicit", Type::Table, kOptional, kAnyValue, &kExplicit},
 };
 constexpr TableSpec kBiaxial{"[biaxial]", kBiaxialKeys};
 
@@ -348,20 +360,71 @@ private:
     p.max_strain = t.number("max_strain").value_or(p.max_strain);
     p.loading_time = t.number("loading_time").value_or(p.loading_time);
     if (auto type = t.string("type")) {
-      static constexpr std::string_view kTypes[] = {"dynamic", "static"};
+      static constexpr std::string_view kTypes[] = {"dynamic", "static", "explicit"};
       if (*type == "dynamic") {
         p.type = StepType::Dynamic;
       } else if (*type == "static") {
         p.type = StepType::Static;
+      } else if (*type == "explicit") {
+        p.type = StepType::Explicit;
       } else {
-        t.error("type", fmt::format("expected \"dynamic\" or \"static\", found \"{}\"{}", *type,
-                                    suggestion_text(*type, kTypes)));
+        t.error("type", fmt::format("expected \"dynamic\", \"static\" or \"explicit\", found "
+                                    "\"{}\"{}",
+                                    *type, suggestion_text(*type, kTypes)));
+        ok = false;
+      }
+    }
+    if (auto ramp = t.string("ramp")) {
+      static constexpr std::string_view kRamps[] = {"linear", "smooth"};
+      if (*ramp == "linear") {
+        p.ramp = BiaxialRamp::Linear;
+      } else if (*ramp == "smooth") {
+        p.ramp = BiaxialRamp::Smooth;
+      } else {
+        t.error("ramp", fmt::format("expected \"linear\" or \"smooth\", found \"{}\"{}", *ramp,
+                                    suggestion_text(*ramp, kRamps)));
         ok = false;
       }
     }
     if (p.type == StepType::Static && t.present("newmark")) {
       t.error("newmark", "'newmark' applies only to type = \"dynamic\"; this test is \"static\"");
       ok = false;
+    }
+    // The implicit keys have no meaning on an explicit test: its step is [biaxial.explicit]'s.
+    // (The explicit table may come with an implicit test: a study then runs it on both paths.)
+    if (p.type == StepType::Explicit)
+      for (std::string_view k :
+           {"dt", "dt_min", "dt_max", "max_iterations", "tolerance", "newmark", "output_every"})
+        if (t.present(k)) {
+          t.error(k, fmt::format("'{}' applies only to implicit (static, dynamic) tests; this test "
+                                 "is \"explicit\": its step is set in [biaxial.explicit]",
+                                 k));
+          ok = false;
+        }
+    if (const CheckedTable* x = t.table("explicit")) {
+      for (const KeySpec& k : kExplicitKeys)
+        ok = ok && (!x->present(k.name) || x->valid(k.name));
+      BiaxialExplicit& e = p.explicit_;
+      e.mass_scaling_dt = x->number("mass_scaling_dt").value_or(e.mass_scaling_dt);
+      e.dt = x->number("dt").value_or(e.dt);
+      e.safety_factor = x->number("safety_factor").value_or(e.safety_factor);
+      e.stable_dt_every = static_cast<int>(std::min<long long>(
+          x->integer("stable_dt_every").value_or(e.stable_dt_every), 1'000'000'000));
+      e.output_every = static_cast<int>(
+          std::min<long long>(x->integer("output_every").value_or(e.output_every), 1'000'000'000));
+      e.energy_monitor = x->boolean("energy_monitor").value_or(e.energy_monitor);
+      const double T = p.loading_time;
+      if (x->valid("mass_scaling_dt") && e.mass_scaling_dt == 0 && !x->present("dt")) {
+        x->error("mass_scaling_dt", "without mass scaling (mass_scaling_dt = 0) give the time "
+                                    "step 'dt', below the stable limit");
+        ok = false;
+      }
+      for (std::string_view k : {"dt", "mass_scaling_dt"})
+        if (x->valid(k) && *x->number(k) > T * (1 + 1e-12)) {
+          x->error(k, fmt::format("expected a time step <= loading_time ({}), found {}", T,
+                                  *x->number(k)));
+          ok = false;
+        }
     }
     const double T = p.loading_time;
     p.dt = t.number("dt").value_or(0);

@@ -164,8 +164,103 @@ TEST(FabricDeck, WrongTypesAndValuesAreReportedAllAtOnce) {
                   "found a floating-point number (3.0)");
   EXPECT_EQ(e[2], "fabric.toml:18:16: biaxial.strain_ratio: expected a number > 0, found a "
                   "string \"two\"");
-  EXPECT_EQ(e[3], "fabric.toml:19:8: biaxial.type: expected \"dynamic\" or \"static\", found "
-                  "\"statik\"; did you mean \"static\"?");
+  EXPECT_EQ(e[3], "fabric.toml:19:8: biaxial.type: expected \"dynamic\", \"static\" or "
+                  "\"explicit\", found \"statik\"; did you mean \"static\"?");
+}
+
+TEST(FabricDeck, ExplicitExampleIsTheK1ModelOnTheExplicitPath) {
+  const Model x = read_deck(kExamples / "biaxial-k1-explicit.toml");
+  const Model i = read_deck(kExamples / "biaxial-k1.toml");
+  ASSERT_EQ(x.nodes.size(), i.nodes.size());
+  for (std::size_t n = 0; n < x.nodes.size(); ++n)
+    EXPECT_EQ(x.nodes[n], i.nodes[n]) << "node " << n;
+  EXPECT_EQ(x.elements.size(), i.elements.size());
+  EXPECT_EQ(x.spline_contacts[0].law.penalty, i.spline_contacts[0].law.penalty);
+  ASSERT_EQ(x.prescribed.size(), i.prescribed.size());
+  for (std::size_t n = 0; n < x.prescribed.size(); ++n)
+    for (std::size_t c = 0; c < 3; ++c)
+      for (double t : {0.0, 0.25, 1.0})
+        EXPECT_EQ(x.prescribed[n].displacement[c]->at(t), i.prescribed[n].displacement[c]->at(t));
+  ASSERT_EQ(x.steps.size(), 1u);
+  const SolutionStep& s = x.steps[0];
+  EXPECT_EQ(s.type, StepType::Explicit);
+  EXPECT_EQ(s.end_time, 1.0);
+  EXPECT_EQ(s.mass_scaling_dt, 2e-5);
+  EXPECT_EQ(s.dt_initial, 2e-5);
+  EXPECT_EQ(s.safety_factor, 0.8);
+  EXPECT_EQ(s.output_every, 250);
+  EXPECT_TRUE(s.energy_monitor);
+}
+
+TEST(FabricDeck, ExplicitTestTakesItsDefaultsAndItsTable) {
+  Model m = read_deck_string(with("type = \"static\"", "type = \"explicit\""), "fabric.toml");
+  ASSERT_EQ(m.steps.size(), 1u);
+  EXPECT_EQ(m.steps[0].type, StepType::Explicit);
+  EXPECT_DOUBLE_EQ(m.steps[0].mass_scaling_dt, 1.0 / 50000); // loading_time / 50 000
+  EXPECT_EQ(m.steps[0].dt_initial, m.steps[0].mass_scaling_dt);
+  EXPECT_EQ(m.steps[0].output_every, 250); // about 200 outputs
+  EXPECT_EQ(m.steps[0].stable_dt_every, 100);
+  m = read_deck_string(with("type = \"static\"", R"(type = "explicit"
+loading_time = 0.5
+explicit = { mass_scaling_dt = 1e-4, dt = 5e-5, safety_factor = 0.5, stable_dt_every = 20, output_every = 7, energy_monitor = false })"),
+                       "fabric.toml");
+  EXPECT_EQ(m.steps[0].end_time, 0.5);
+  EXPECT_EQ(m.steps[0].mass_scaling_dt, 1e-4);
+  EXPECT_EQ(m.steps[0].dt_initial, 5e-5);
+  EXPECT_EQ(m.steps[0].safety_factor, 0.5);
+  EXPECT_EQ(m.steps[0].stable_dt_every, 20);
+  EXPECT_EQ(m.steps[0].output_every, 7);
+  EXPECT_FALSE(m.steps[0].energy_monitor);
+  // The table may come with an implicit test (a study runs it on both paths): unused there.
+  m = read_deck_string(with("type = \"static\"", "type = \"dynamic\"\nexplicit = { dt = 1e-5 }"),
+                       "fabric.toml");
+  EXPECT_EQ(m.steps[0].type, StepType::Dynamic);
+  EXPECT_EQ(m.steps[0].dt_initial, 0.01);
+}
+
+TEST(FabricDeck, ImplicitKeysOnAnExplicitTestAndBadExplicitValuesAreReported) {
+  auto e = errors_of(with("type = \"static\"", R"(type = "explicit"
+dt = 1e-5
+newmark = { beta = 0.25 }
+ramp = "smoth"
+explicit = { safety_factor = 1.5, mass_scaling_dt = 0.0 })"));
+  ASSERT_EQ(e.size(), 5u) << joined(e);
+  EXPECT_EQ(e[0], "fabric.toml:20:6: biaxial.dt: 'dt' applies only to implicit (static, dynamic) "
+                  "tests; this test is \"explicit\": its step is set in [biaxial.explicit]");
+  EXPECT_EQ(e[1], "fabric.toml:21:11: biaxial.newmark: 'newmark' applies only to implicit (static, "
+                  "dynamic) tests; this test is \"explicit\": its step is set in "
+                  "[biaxial.explicit]");
+  EXPECT_EQ(e[2], "fabric.toml:22:8: biaxial.ramp: expected \"linear\" or \"smooth\", found "
+                  "\"smoth\"; did you mean \"smooth\"?");
+  EXPECT_EQ(e[3], "fabric.toml:23:30: biaxial.explicit.safety_factor: expected a number in (0, 1], "
+                  "found 1.5");
+  EXPECT_EQ(e[4], "fabric.toml:23:53: biaxial.explicit.mass_scaling_dt: without mass scaling "
+                  "(mass_scaling_dt = 0) give the time step 'dt', below the stable limit");
+}
+
+TEST(FabricDeck, SmoothRampStartsAndEndsAtRest) {
+  const Model lin = read_deck_string(kValid, "fabric.toml");
+  const Model smooth = read_deck_string(
+      with("type = \"static\"", "type = \"static\"\nramp = \"smooth\""), "fabric.toml");
+  ASSERT_EQ(lin.prescribed.size(), smooth.prescribed.size());
+  int moving = 0;
+  for (std::size_t n = 0; n < lin.prescribed.size(); ++n)
+    for (std::size_t c = 0; c < 3; ++c) {
+      const TimeTable& a = *lin.prescribed[n].displacement[c];
+      const TimeTable& b = *smooth.prescribed[n].displacement[c];
+      const double u = a.at(1.0);
+      EXPECT_EQ(b.at(1.0), u);
+      EXPECT_EQ(b.at(0.0), 0.0);
+      if (u == 0)
+        continue;
+      ++moving;
+      EXPECT_NEAR(b.at(0.5), 0.5 * u, 1e-15); // s(1/2) = 1/2
+      EXPECT_NEAR(b.at(0.25), (10 - 15 * 0.25 + 6 * 0.0625) * 0.015625 * u, 1e-15);
+      // Rates over the first and last 1/400: the tabulated smooth step starts and ends at rest.
+      EXPECT_LT(std::abs(b.at(1.0 / 400)), 1e-6 * std::abs(u));
+      EXPECT_LT(std::abs(u - b.at(1 - 1.0 / 400)), 1e-6 * std::abs(u));
+    }
+  EXPECT_GT(moving, 0);
 }
 
 TEST(FabricDeck, MissingAndInconsistentValuesAreReported) {
