@@ -78,8 +78,8 @@ void BM_ExplicitSteps(benchmark::State& state) {
     state.counters["cpu_ms_per_step"] =
         1e3 * static_cast<double>(watch.last_cpu - watch.first_cpu) / CLOCKS_PER_SEC / stepped;
     state.counters["elements"] = static_cast<double>(m.elements.size());
-    state.counters["contact_candidates"] = sim.spline_contact()->candidates();
-    state.counters["active_contacts"] = sim.spline_contact()->active();
+    state.counters["contact_candidates"] = sim.contact()->candidates();
+    state.counters["active_contacts"] = sim.contact()->active();
   }
 }
 BENCHMARK(BM_ExplicitSteps)

@@ -179,7 +179,7 @@ TEST(Biaxial, ExplicitPathFollowsTheImplicitCurvePastTheToe) {
     increments = sim.state().increment;
     if (status)
       *status = sim.explicit_status();
-    EXPECT_GT(sim.spline_contact()->active(), 0) << "no contact: the test would not exercise it";
+    EXPECT_GT(sim.contact()->active(), 0) << "no contact: the test would not exercise it";
     return rec.c;
   };
   const Model implicit_model = weave(StepType::Dynamic);
@@ -249,7 +249,7 @@ TEST(Biaxial, ExplicitPathGivesBitwiseIdenticalResultsOnOneAndTwoThreads) {
     void on_increment(const Simulation& s, const IncrementReport&) override {
       x.push_back(s.state().x_n);
       r.push_back(s.reactions());
-      f.push_back(s.spline_contact()->total_force());
+      f.push_back(s.contact()->total_force());
       energy.push_back(s.energy_balance().error);
     }
   };
