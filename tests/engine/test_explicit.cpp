@@ -326,6 +326,29 @@ TEST(Explicit, OneAndTwoThreadsGiveBitwiseIdenticalPositions) {
   }
 }
 
+TEST(Explicit, MassScalingWithContactReachesTheTargetStep) {
+  // The contact term of the estimate also limits the step: the elements are scaled further, so a
+  // step equal to the target is accepted (the fabric decks run at dt = mass_scaling_dt).
+  Model m = contact_mat(3, 3, 8);
+  m.steps.push_back(explicit_step(1.0, 1.0));
+  const ExplicitStatus plain = Simulation(m).explicit_stability(m.steps.back());
+  const double target = 20 * plain.stable_dt;
+  m.steps.back().mass_scaling_dt = target;
+  const ExplicitStatus scaled = Simulation(m).explicit_stability(m.steps.back());
+  std::printf("contact mat: stable %.4g s (set by %s); mass scaling to %.4g s: stable %.4g s (set "
+              "by %s), added %.3g %% of the mass\n",
+              plain.stable_dt, plain.limited_by.c_str(), target, scaled.stable_dt,
+              scaled.limited_by.c_str(), scaled.added_mass_percent);
+  EXPECT_GE(scaled.stable_dt, target * (1 - 1e-12));
+  EXPECT_LT(scaled.stable_dt, 1.01 * target) << "more mass than the target needs";
+  m.steps.back().dt_initial = m.steps.back().dt_max = target;
+  m.steps.back().end_time = 50 * target;
+  Simulation sim(m);
+  sim.run();
+  EXPECT_EQ(sim.explicit_status().increments, 50);
+  EXPECT_GT(sim.spline_contact()->total_force(), 0.0);
+}
+
 TEST(Explicit, ExampleDeckRunsTheFlyingBeam) {
   Model m = read_deck(kExamples / "flying-beam-explicit.toml");
   ASSERT_EQ(m.steps.size(), 1u);
