@@ -346,7 +346,7 @@ TEST(Explicit, MassScalingWithContactReachesTheTargetStep) {
   Simulation sim(m);
   sim.run();
   EXPECT_EQ(sim.explicit_status().increments, 50);
-  EXPECT_GT(sim.spline_contact()->total_force(), 0.0);
+  EXPECT_GT(sim.contact()->total_force(), 0.0);
 }
 
 TEST(Explicit, ExampleDeckRunsTheFlyingBeam) {
