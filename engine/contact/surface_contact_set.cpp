@@ -163,22 +163,25 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
         }
       });
 
-  merge_valley_duplicates();
+  share_merging_contacts();
   summary_ = {};
   summary_.candidates = static_cast<int>(work_.size());
   summary_.min_gap = std::numeric_limits<double>::infinity();
+  double active_weight = 0;
   for (const Work& w : work_) {
     const auto& r = w.result;
     if (r.status == contact::ProjectionStatus::Converged)
       summary_.min_gap = std::min(summary_.min_gap, r.gap);
     if (!r.active)
       continue;
-    ++summary_.active;
+    // Contact points: a contact shared by two pairs counts once in all (w = 1/2 each).
+    active_weight += w.weight;
     summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
-    summary_.max_force = std::max(summary_.max_force, r.force);
-    summary_.potential += r.potential;
-    summary_.total_force += r.force;
+    summary_.max_force = std::max(summary_.max_force, w.weight * r.force);
+    summary_.potential += w.weight * r.potential;
+    summary_.total_force += w.weight * r.force;
   }
+  summary_.active = static_cast<int>(std::lround(active_weight));
 
   // Veto: a pair in contact at the last converged increment, or now, whose projection failed or
   // jumped.
@@ -205,19 +208,24 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
   return {};
 }
 
-void SurfaceContactSet::merge_valley_duplicates() {
-  // Two consecutive elements of one surface meet at a kink. Where that kink is concave towards
-  // the other surface (a valley), the extensions of the two cylinders overlap near the shared
-  // node, and a point of the other surface pressing there is inside both: each pair owns a
-  // solution in its range, and counting both would double the contact stiffness. Two active pairs
-  // that share one element, whose other elements are neighbours on one surface, and whose points
-  // on the shared element coincide (within a tenth of its smaller semi-axis) are one contact: the
-  // deeper one is kept (ties: the element after the kink, as ownership of a node does). Pairs
-  // whose points on the shared element differ are kept both: a crimped yarn crossing another
-  // touches it on up to four element pairs around the crossing (docs/verification.md).
-  auto same_contact = [&](const Work& p, const Work& q, bool shared_first) {
+void SurfaceContactSet::share_merging_contacts() {
+  // Two consecutive elements of one surface meet at a node, where their cylinders overlap or part
+  // (a kink). A pair of the other surface's element with each of them holds its own overlap; when
+  // the two overlaps come together (a contact pressing into a valley between the two cylinders,
+  // or two patches of a crossing coalescing as a crimped yarn straightens) both pairs find the
+  // same point, and counting both doubles the stiffness, while dropping one when its solution
+  // leaves its range makes the force jump. So two active pairs that share one element, whose other
+  // elements are neighbours on one surface, share their contact by the distance d between their
+  // points on the shared element:
+  //   w = 1 - phi(d / l) / 2,  phi(r) = (1 - r^2)^2 for r < 1, else 0,  l = min(a, b) / 2,
+  // each pair's residual and tangent times w: one contact (w = 1/2 each) where the points
+  // coincide, two (w = 1) once they are l apart, smooth in between. Separate patches around a
+  // crossing lie farther apart than l and keep w = 1. The tangent leaves out dw/dd.
+  for (Work& w : work_)
+    w.weight = 1.0;
+  auto share = [&](Work& p, Work& q, bool shared_first) {
     if (p.definition != q.definition || !p.result.active || !q.result.active)
-      return false;
+      return;
     const Definition& d = *definitions_[p.definition];
     const int ps = shared_first ? p.pair.first : p.pair.second;
     const int qs = shared_first ? q.pair.first : q.pair.second;
@@ -225,21 +233,22 @@ void SurfaceContactSet::merge_valley_duplicates() {
     const int qo = shared_first ? q.pair.second : q.pair.first;
     if (ps != qs || d.surface[po] != d.surface[qo] ||
         std::abs(d.position[po] - d.position[qo]) != 1)
-      return false;
+      return;
     const Surface& shared = model_.surfaces[d.surface[ps]];
-    const double tolerance = 0.1 * std::min(shared.a, shared.b);
+    const double l = 0.5 * std::min(shared.a, shared.b);
     const Eigen::Vector3d& x_p = shared_first ? p.result.point_A : p.result.point_B;
     const Eigen::Vector3d& x_q = shared_first ? q.result.point_A : q.result.point_B;
-    return (x_p - x_q).norm() <= tolerance;
-  };
-  auto keep_deeper = [](Work& p, Work& q) {
-    (p.result.penetration > q.result.penetration ? q : p).result.active = false;
+    const double r = (x_p - x_q).norm() / l;
+    if (r >= 1)
+      return;
+    const double w = 1 - 0.5 * (1 - r * r) * (1 - r * r);
+    p.weight *= w;
+    q.weight *= w;
   };
   // work_ is sorted by (definition, first, second): pairs sharing a first element are adjacent;
   // pairs sharing a second element are found through a sorted index.
   for (std::size_t i = 0; i + 1 < work_.size(); ++i)
-    if (same_contact(work_[i], work_[i + 1], true))
-      keep_deeper(work_[i], work_[i + 1]);
+    share(work_[i], work_[i + 1], true);
   std::vector<std::size_t> by_second(work_.size());
   for (std::size_t i = 0; i < by_second.size(); ++i)
     by_second[i] = i;
@@ -250,8 +259,7 @@ void SurfaceContactSet::merge_valley_duplicates() {
            std::tie(q.definition, q.pair.second, q.pair.first);
   });
   for (std::size_t k = 0; k + 1 < by_second.size(); ++k)
-    if (same_contact(work_[by_second[k]], work_[by_second[k + 1]], false))
-      keep_deeper(work_[by_second[k]], work_[by_second[k + 1]]);
+    share(work_[by_second[k]], work_[by_second[k + 1]], false);
 }
 
 std::vector<std::array<int, 6>> SurfaceContactSet::couplings() const {
@@ -271,14 +279,16 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
       continue;
     const std::array<int, 4> n = nodes_of(*definitions_[item.definition], item.pair);
     // Kernel order per surface X (0: A, 1: B): x_first, x_last, alpha_first, alpha_last.
+    const double w = item.weight;
     for (int X = 0; X < 2; ++X)
       for (int k = 0; k < 2; ++k) {
         const int node = n[2 * X + k];
-        residual.segment<3>(6 * node) += item.result.residual.segment<3>(12 * X + 3 * k);
-        residual.segment<3>(6 * node + 3) += item.result.residual.segment<3>(12 * X + 6 + 3 * k);
+        residual.segment<3>(6 * node) += w * item.result.residual.segment<3>(12 * X + 3 * k);
+        residual.segment<3>(6 * node + 3) +=
+            w * item.result.residual.segment<3>(12 * X + 6 + 3 * k);
       }
     if (want_tangent)
-      assembler.add_surface_pair_block(n, item.result.tangent);
+      assembler.add_surface_pair_block(n, item.result.tangent, w);
   }
 }
 
@@ -300,7 +310,7 @@ std::vector<ContactPoint> SurfaceContactSet::points() const {
   for (const Work& w : work_)
     if (w.result.active)
       out.push_back({0.5 * (w.result.point_A + w.result.point_B), w.result.normal, w.result.gap,
-                     w.result.force});
+                     w.weight * w.result.force});
   return out;
 }
 

@@ -42,13 +42,14 @@ private:
     int definition;
     broadphase::CandidatePair pair;
     contact::SurfaceContactResult result;
+    double weight = 1.0; ///< share of the contact this pair holds (share_merging_contacts)
   };
   using Key = std::array<int, 3>; ///< definition, first, second segment id
 
   /// End nodes of a pair's two elements: A first, A last, B first, B last.
   std::array<int, 4> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
-  /// Deactivates the second count of a contact pressing into a valley between two elements.
-  void merge_valley_duplicates();
+  /// Shares one contact between the two pairs that find it where two overlaps come together.
+  void share_merging_contacts();
   /// The cylinder of segment s of definition d at the state's configuration.
   contact::SuperEllipticalCylinder cylinder(const Definition& d, int s, const State& state) const;
 
