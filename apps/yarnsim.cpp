@@ -2,6 +2,7 @@
 // (README: 0 success, 1 other failure, 2 bad input or usage, 3 no convergence, 130 interrupted).
 
 #include "engine/model/deck.hpp"
+#include "engine/output/checkpoint_file.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/study/study.hpp"
@@ -68,6 +69,18 @@ int main(int argc, char** argv) {
                   "moments), lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
       ->check(CLI::IsMember({"auto", "lu", "ldlt", "eigen-lu"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
+  std::string restart;
+  int stop_after = 0;
+  run->add_option("--restart", restart,
+                  "Continue the run of this deck whose output folder is DIR from its last "
+                  "completed increment (DIR/checkpoint.h5); the output folder then holds the "
+                  "whole history")
+      ->type_name("DIR");
+  run->add_option("--stop-after", stop_after,
+                  "Stop (exit 130, as interrupted) after the first increment written at or "
+                  "beyond increment N of the run")
+      ->type_name("N")
+      ->check(CLI::PositiveNumber);
 
   std::string study_deck;
   CLI::App* study = app.add_subcommand(
@@ -151,6 +164,8 @@ int main(int argc, char** argv) {
     options.linear_solver = yarnsim::linear_solver_kind_from(solver);
     options.progress = !quiet;
     options.stop_requested = &g_stop;
+    options.restart_from = restart;
+    options.stop_after = stop_after;
     fmt::print(stderr, "yarnsim {}: {} ({} nodes, {} elements), {} thread(s), output in {}\n",
                yarnsim::kVersion, model.title.empty() ? deck_path.filename().string() : model.title,
                model.nodes.size(), model.elements.size(), threads, out_dir.string());
@@ -162,13 +177,18 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "{}\nerror: the deck has {} problem(s); nothing was run\n", e.what(),
                e.messages().size());
     return kBadInput;
+  } catch (const yarnsim::output::RestartError& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return kBadInput;
   } catch (const yarnsim::ConvergenceError& e) {
     fmt::print(stderr, "error: {}\nThe results in {} hold every completed increment.\n", e.what(),
                out_dir.string());
     return kNoConvergence;
   } catch (const yarnsim::Interrupted& e) {
-    fmt::print(stderr, "{}\nThe results in {} hold every completed increment.\n", e.what(),
-               out_dir.string());
+    fmt::print(stderr,
+               "{}\nThe results in {} hold every completed increment; continue with\n  yarnsim "
+               "run {} --restart {}\n",
+               e.what(), out_dir.string(), deck, out_dir.string());
     return kInterrupted;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());

@@ -107,4 +107,14 @@ std::string ContactStage::formulations() const {
   return out;
 }
 
+SplineContactSet* ContactStage::spline() {
+  return !names_.empty() && names_.front() == "spline"
+             ? static_cast<SplineContactSet*>(sets_.front().get())
+             : nullptr;
+}
+
+const SplineContactSet* ContactStage::spline() const {
+  return const_cast<ContactStage*>(this)->spline();
+}
+
 } // namespace yarnsim

@@ -17,6 +17,7 @@
 namespace yarnsim {
 
 class Assembler;
+class SplineContactSet;
 
 /// An active contact point, for output.
 struct ContactPoint {
@@ -95,6 +96,9 @@ public:
   std::vector<ContactPoint> points() const;
   /// "spline", "surface" or "spline and surface".
   std::string formulations() const;
+  /// The spline contact set, or null (checkpoints save and restore it).
+  SplineContactSet* spline();
+  const SplineContactSet* spline() const;
 
 private:
   std::vector<std::unique_ptr<ContactSet>> sets_;

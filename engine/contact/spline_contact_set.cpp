@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <fmt/format.h>
 #include <limits>
+#include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -19,6 +20,7 @@ struct SplineContactSet::Definition {
   std::unique_ptr<broadphase::CandidateSearch> search;
   std::shared_ptr<const contact::InterfaceLaw> law;
   std::vector<Eigen::AlignedBox3d> boxes;
+  std::vector<Eigen::AlignedBox3d> searched; ///< boxes of the last search (for a restart)
 };
 
 std::shared_ptr<const contact::InterfaceLaw> make_interface_law(const InterfaceLawParameters& p) {
@@ -86,7 +88,10 @@ bool SplineContactSet::update_candidates(const State& state) {
       box.extend(x.col(nodes[i + 2]));
       d.boxes[s] = box;
     }
-    changed = d.search->update(d.boxes, d.radius) || changed;
+    if (d.search->update(d.boxes, d.radius)) {
+      d.searched = d.boxes;
+      changed = true;
+    }
   }
   if (!changed)
     return false;
@@ -128,21 +133,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
         }
       });
 
-  summary_ = {};
-  summary_.candidates = static_cast<int>(work_.size());
-  summary_.min_gap = std::numeric_limits<double>::infinity();
-  for (const Work& w : work_) {
-    const auto& r = w.result;
-    if (r.status == contact::ProjectionStatus::Converged)
-      summary_.min_gap = std::min(summary_.min_gap, r.gap);
-    if (!r.active)
-      continue;
-    ++summary_.active;
-    summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
-    summary_.max_force = std::max(summary_.max_force, r.force);
-    summary_.potential += r.potential;
-    summary_.total_force += r.force;
-  }
+  summarise();
 
   // Veto: a pair in contact at the last converged increment whose projection failed or jumped.
   for (const Work& item : work_) {
@@ -205,6 +196,95 @@ std::vector<ContactPoint> SplineContactSet::points() const {
       out.push_back({0.5 * (w.result.point_A + w.result.point_B), w.result.normal, w.result.gap,
                      w.result.force});
   return out;
+}
+
+SplineContactSet::Snapshot SplineContactSet::snapshot() const {
+  Snapshot out;
+  for (const auto& d : definitions_)
+    out.search_boxes.push_back(d->searched);
+  out.committed.reserve(committed_.size());
+  for (const auto& [key, c] : committed_)
+    out.committed.push_back({key, c.xi_A, c.xi_B, c.active});
+  out.pairs.reserve(work_.size());
+  for (const Work& w : work_) {
+    const contact::SplineContactResult& r = w.result;
+    out.pairs.push_back({Key{w.definition, w.pair.first, w.pair.second}, r.status, r.degenerate,
+                         r.active, r.iterations, r.xi_A, r.xi_B, r.distance, r.gap, r.penetration,
+                         r.penetration_rate, r.force, r.potential, r.point_A, r.point_B, r.normal});
+  }
+  out.candidates_version = candidates_version_;
+  return out;
+}
+
+void SplineContactSet::restore(const Snapshot& snapshot) {
+  if (snapshot.search_boxes.size() != definitions_.size())
+    throw std::invalid_argument(
+        fmt::format("contact restart: {} contact definitions saved, the model has {}",
+                    snapshot.search_boxes.size(), definitions_.size()));
+  // Searching the saved boxes again makes them the reference of the motion test and gives the
+  // candidates of the saved search (sorted, independent of the tree).
+  std::vector<Work> work;
+  for (std::size_t k = 0; k < definitions_.size(); ++k) {
+    Definition& d = *definitions_[k];
+    if (snapshot.search_boxes[k].size() != d.boxes.size())
+      throw std::invalid_argument(fmt::format(
+          "contact restart: definition '{}' has {} segments, the snapshot {} boxes",
+          model_.spline_contacts[k].name, d.boxes.size(), snapshot.search_boxes[k].size()));
+    d.searched = snapshot.search_boxes[k];
+    d.search->update(d.searched, d.radius, true);
+    for (const broadphase::CandidatePair& p : d.search->candidates())
+      work.push_back({static_cast<int>(k), p, {}});
+  }
+  if (work.size() != snapshot.pairs.size())
+    throw std::invalid_argument(
+        fmt::format("contact restart: the saved boxes give {} candidate pairs, the snapshot has {}",
+                    work.size(), snapshot.pairs.size()));
+  for (std::size_t w = 0; w < work.size(); ++w) {
+    const Snapshot::Pair& p = snapshot.pairs[w];
+    if (p.key != Key{work[w].definition, work[w].pair.first, work[w].pair.second})
+      throw std::invalid_argument(fmt::format(
+          "contact restart: candidate {} of the saved search differs from the snapshot's", w));
+    contact::SplineContactResult& r = work[w].result;
+    r.status = p.status;
+    r.degenerate = p.degenerate;
+    r.active = p.active;
+    r.iterations = p.iterations;
+    r.xi_A = p.xi_A;
+    r.xi_B = p.xi_B;
+    r.distance = p.distance;
+    r.gap = p.gap;
+    r.penetration = p.penetration;
+    r.penetration_rate = p.penetration_rate;
+    r.force = p.force;
+    r.potential = p.potential;
+    r.point_A = p.point_A;
+    r.point_B = p.point_B;
+    r.normal = p.normal;
+  }
+  work_ = std::move(work);
+  committed_.clear();
+  for (const Snapshot::Warm& c : snapshot.committed)
+    committed_[c.key] = {c.xi_A, c.xi_B, c.active};
+  candidates_version_ = snapshot.candidates_version;
+  summarise();
+}
+
+void SplineContactSet::summarise() {
+  summary_ = {};
+  summary_.candidates = static_cast<int>(work_.size());
+  summary_.min_gap = std::numeric_limits<double>::infinity();
+  for (const Work& w : work_) {
+    const auto& r = w.result;
+    if (r.status == contact::ProjectionStatus::Converged)
+      summary_.min_gap = std::min(summary_.min_gap, r.gap);
+    if (!r.active)
+      continue;
+    ++summary_.active;
+    summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
+    summary_.max_force = std::max(summary_.max_force, r.force);
+    summary_.potential += r.potential;
+    summary_.total_force += r.force;
+  }
 }
 
 } // namespace yarnsim

@@ -40,6 +40,36 @@ public:
   const ContactSummary& summary() const override { return summary_; }
   std::vector<ContactPoint> points() const override;
 
+  /// What a restart needs to continue bit for bit (engine/solver/checkpoint.hpp): the boxes of
+  /// each definition's last broad-phase search (searching them again gives the same candidates
+  /// and the same motion test), the committed warm starts, and the candidates with the outcome of
+  /// the last evaluation. Residuals and tangents are left out: every use computes them again.
+  using Key = std::array<int, 3>; ///< definition, first, second segment id
+  struct Snapshot {
+    struct Warm {
+      Key key;
+      double xi_A, xi_B;
+      bool active;
+    };
+    /// A candidate and the scalar part of its last SplineContactResult.
+    struct Pair {
+      Key key;
+      contact::ProjectionStatus status;
+      bool degenerate, active;
+      int iterations;
+      double xi_A, xi_B, distance, gap, penetration, penetration_rate, force, potential;
+      Eigen::Vector3d point_A, point_B, normal;
+    };
+    std::vector<std::vector<Eigen::AlignedBox3d>> search_boxes; ///< per definition, per segment
+    std::vector<Warm> committed;                                ///< sorted by key
+    std::vector<Pair> pairs;                                    ///< the work list, in order
+    int candidates_version = 0;
+  };
+  Snapshot snapshot() const;
+  /// Puts a snapshot of a set of the same model back. Throws std::invalid_argument when it does
+  /// not fit the model or its boxes do not give its candidates.
+  void restore(const Snapshot& snapshot);
+
 private:
   struct Definition;
   struct Work {
@@ -47,9 +77,10 @@ private:
     broadphase::CandidatePair pair;
     contact::SplineContactResult result;
   };
-  using Key = std::array<int, 3>; ///< definition, first, second segment id
 
   std::array<int, 6> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
+  /// summary_ from work_.
+  void summarise();
 
   const Model& model_;
   std::vector<contact::SplineCurve> curves_; ///< per spline

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
+#include <sstream>
 #include <stdexcept>
 #include <system_error>
 
@@ -29,6 +31,65 @@ CsvWriter::CsvWriter(const std::filesystem::path& file, std::vector<std::string>
     throw std::runtime_error(fmt::format("csv: cannot write {}", file.string()));
 }
 
+CsvWriter::CsvWriter(const std::filesystem::path& file, std::vector<std::string> columns_with_units,
+                     long keep_rows)
+    : path_(file), columns_(columns_with_units.size()) {
+  std::string text;
+  {
+    std::ifstream in(file, std::ios::binary);
+    if (!in)
+      throw std::runtime_error(
+          fmt::format("csv: cannot continue {}: the file is missing", file.string()));
+    std::ostringstream s;
+    s << in.rdbuf();
+    text = s.str();
+  }
+  std::string header;
+  if (columns_with_units.empty()) { // the file's own header
+    const std::size_t eol = text.find('\n');
+    if (eol == std::string::npos)
+      throw std::runtime_error(
+          fmt::format("csv: cannot continue {}: it has no complete header", file.string()));
+    header = text.substr(0, eol + 1);
+    columns_ = static_cast<std::size_t>(std::count(header.begin(), header.end(), ',')) + 1;
+  } else {
+    header = fmt::format("{}\n", fmt::join(columns_with_units, ","));
+    if (text.compare(0, header.size(), header) != 0)
+      throw std::runtime_error(fmt::format("csv: cannot continue {}: its header is not '{}'",
+                                           file.string(), header.substr(0, header.size() - 1)));
+  }
+  // The end of row keep_rows: complete rows only.
+  std::size_t end = header.size();
+  for (long r = 0; r < keep_rows; ++r) {
+    const std::size_t eol = text.find('\n', end);
+    if (eol == std::string::npos)
+      throw std::runtime_error(fmt::format("csv: cannot continue {}: it holds {} complete rows, "
+                                           "the checkpoint {}",
+                                           file.string(), r, keep_rows));
+    end = eol + 1;
+  }
+  if (end != text.size()) {
+    std::filesystem::path tmp = file;
+    tmp += ".tmp";
+    {
+      std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+      out.write(text.data(), static_cast<std::streamsize>(end));
+      out.close();
+      if (!out)
+        throw std::runtime_error(fmt::format("csv: cannot write {}", tmp.string()));
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, file, ec);
+    if (ec)
+      throw std::runtime_error(fmt::format("csv: cannot rename {} to {}: {}", tmp.string(),
+                                           file.string(), ec.message()));
+  }
+  rows_ = keep_rows;
+  out_.open(file, std::ios::app);
+  if (!out_)
+    throw std::runtime_error(fmt::format("csv: cannot write {}", file.string()));
+}
+
 void CsvWriter::row(std::span<const double> values) {
   if (values.size() != columns_)
     throw std::invalid_argument(fmt::format("csv: row of {} values for the {} columns of {}",
@@ -37,6 +98,7 @@ void CsvWriter::row(std::span<const double> values) {
   out_ << line << std::flush;
   if (!out_)
     throw std::runtime_error(fmt::format("csv: cannot write to {}", path_.string()));
+  ++rows_;
 }
 
 } // namespace yarnsim::output

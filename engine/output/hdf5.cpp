@@ -168,16 +168,68 @@ Handle open_file_read_only(const std::filesystem::path& file) {
   return Handle(id, H5Fclose, "H5Fopen");
 }
 
+Handle open_file_read_write(const std::filesystem::path& file) {
+  Handle fapl = file_access_without_locking();
+  const hid_t id = H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id());
+  if (id < 0)
+    throw std::runtime_error(
+        fmt::format("HDF5: cannot open {} for writing: {}", file.string(), error_stack_summary()));
+  return Handle(id, H5Fclose, "H5Fopen");
+}
+
 void flush(hid_t object) {
   checked(H5Fflush(object, H5F_SCOPE_GLOBAL), "H5Fflush", object, "");
 }
 
-Handle create_group(hid_t parent, const std::string& name) {
+Handle create_group(hid_t parent, const std::string& name, bool attribute_order) {
   Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose, "H5Pcreate(H5P_LINK_CREATE)");
   check(H5Pset_create_intermediate_group(lcpl.id(), 1), "H5Pset_create_intermediate_group");
-  return Handle(checked(H5Gcreate2(parent, name.c_str(), lcpl.id(), H5P_DEFAULT, H5P_DEFAULT),
+  Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose, "H5Pcreate(H5P_GROUP_CREATE)");
+  if (attribute_order)
+    check(H5Pset_attr_creation_order(gcpl.id(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED),
+          "H5Pset_attr_creation_order");
+  return Handle(checked(H5Gcreate2(parent, name.c_str(), lcpl.id(), gcpl.id(), H5P_DEFAULT),
                         "H5Gcreate2", parent, name),
                 H5Gclose, "H5Gcreate2");
+}
+
+Handle open_group(hid_t parent, const std::string& name) {
+  return Handle(checked(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), "H5Gopen2", parent, name),
+                H5Gclose, "H5Gopen2");
+}
+
+bool exists(hid_t parent, const std::string& name) {
+  return checked(H5Lexists(parent, name.c_str(), H5P_DEFAULT), "H5Lexists", parent, name) > 0;
+}
+
+void remove(hid_t parent, const std::string& name) {
+  checked(H5Ldelete(parent, name.c_str(), H5P_DEFAULT), "H5Ldelete", parent, name);
+}
+
+std::vector<std::string> link_names(hid_t group) {
+  std::vector<std::string> names;
+  auto collect = [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
+    static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+    return 0;
+  };
+  checked(H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names), "H5Literate",
+          group, ".");
+  return names;
+}
+
+std::vector<std::string> attribute_names(hid_t object) {
+  Handle gcpl(H5Gget_create_plist(object), H5Pclose, "H5Gget_create_plist");
+  unsigned flags = 0;
+  check(H5Pget_attr_creation_order(gcpl.id(), &flags), "H5Pget_attr_creation_order");
+  const H5_index_t index = (flags & H5P_CRT_ORDER_TRACKED) ? H5_INDEX_CRT_ORDER : H5_INDEX_NAME;
+  std::vector<std::string> names;
+  auto collect = [](hid_t, const char* name, const H5A_info_t*, void* out) -> herr_t {
+    static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+    return 0;
+  };
+  checked(H5Aiterate2(object, index, H5_ITER_INC, nullptr, collect, &names), "H5Aiterate2", object,
+          ".");
+  return names;
 }
 
 void write_dataset(hid_t parent, const std::string& name, std::span<const double> data,
@@ -214,6 +266,71 @@ void write_double_attribute(hid_t object, const std::string& name, double value)
   Handle attribute = create_scalar_attribute(object, name, H5T_IEEE_F64LE);
   checked(H5Awrite(attribute.id(), H5T_NATIVE_DOUBLE, &value), "H5Awrite", object, name);
   attribute.close();
+}
+
+namespace {
+
+template <class T>
+std::vector<T> read_dataset_impl(hid_t parent, const std::string& name, hid_t memory_type,
+                                 std::vector<hsize_t>* dims_out) {
+  Handle dataset(checked(H5Dopen2(parent, name.c_str(), H5P_DEFAULT), "H5Dopen2", parent, name),
+                 H5Dclose, "H5Dopen2");
+  Handle space(checked(H5Dget_space(dataset.id()), "H5Dget_space", parent, name), H5Sclose,
+               "H5Dget_space");
+  const int rank =
+      checked(H5Sget_simple_extent_ndims(space.id()), "H5Sget_simple_extent_ndims", parent, name);
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  checked(H5Sget_simple_extent_dims(space.id(), dims.data(), nullptr), "H5Sget_simple_extent_dims",
+          parent, name);
+  std::vector<T> data(element_count(dims));
+  if (!data.empty())
+    checked(H5Dread(dataset.id(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()),
+            "H5Dread", parent, name);
+  if (dims_out)
+    *dims_out = std::move(dims);
+  return data;
+}
+
+Handle open_attribute(hid_t object, const std::string& name) {
+  return Handle(checked(H5Aopen(object, name.c_str(), H5P_DEFAULT), "H5Aopen", object, name),
+                H5Aclose, "H5Aopen");
+}
+
+} // namespace
+
+std::vector<double> read_doubles(hid_t parent, const std::string& name,
+                                 std::vector<hsize_t>* dims) {
+  return read_dataset_impl<double>(parent, name, H5T_NATIVE_DOUBLE, dims);
+}
+
+std::vector<int> read_ints(hid_t parent, const std::string& name, std::vector<hsize_t>* dims) {
+  return read_dataset_impl<int>(parent, name, H5T_NATIVE_INT, dims);
+}
+
+std::string read_string_attribute(hid_t object, const std::string& name) {
+  Handle attribute = open_attribute(object, name);
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose, "H5Tcopy(H5T_C_S1)");
+  check(H5Tset_size(type.id(), H5T_VARIABLE), "H5Tset_size(H5T_VARIABLE)");
+  check(H5Tset_cset(type.id(), H5T_CSET_UTF8), "H5Tset_cset(H5T_CSET_UTF8)");
+  char* pointer = nullptr;
+  checked(H5Aread(attribute.id(), type.id(), &pointer), "H5Aread", object, name);
+  std::string value = pointer ? pointer : "";
+  H5free_memory(pointer);
+  return value;
+}
+
+int read_int_attribute(hid_t object, const std::string& name) {
+  Handle attribute = open_attribute(object, name);
+  int value = 0;
+  checked(H5Aread(attribute.id(), H5T_NATIVE_INT, &value), "H5Aread", object, name);
+  return value;
+}
+
+double read_double_attribute(hid_t object, const std::string& name) {
+  Handle attribute = open_attribute(object, name);
+  double value = 0;
+  checked(H5Aread(attribute.id(), H5T_NATIVE_DOUBLE, &value), "H5Aread", object, name);
+  return value;
 }
 
 } // namespace yarnsim::output::h5

@@ -9,6 +9,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace yarnsim::output::h5 {
 
@@ -53,11 +54,25 @@ std::string describe(hid_t object);
 Handle create_file(const std::filesystem::path& file);
 /// Opens an existing file read-only, file locking disabled.
 Handle open_file_read_only(const std::filesystem::path& file);
+/// Opens an existing file for reading and writing, file locking disabled.
+Handle open_file_read_write(const std::filesystem::path& file);
 /// Flushes every buffer of the file holding object to the operating system.
 void flush(hid_t object);
 
-/// Creates group name (relative to parent, intermediate groups created as needed).
-Handle create_group(hid_t parent, const std::string& name);
+/// Creates group name (relative to parent, intermediate groups created as needed). With
+/// attribute_order, the group tracks the creation order of its attributes (attribute_names).
+Handle create_group(hid_t parent, const std::string& name, bool attribute_order = false);
+/// Opens an existing group.
+Handle open_group(hid_t parent, const std::string& name);
+/// Whether parent has a link called name (one path component).
+bool exists(hid_t parent, const std::string& name);
+/// Removes the link name under parent.
+void remove(hid_t parent, const std::string& name);
+/// Names of the links directly under a group, in name order.
+std::vector<std::string> link_names(hid_t group);
+/// Names of a group's attributes: in creation order when the group tracks it, in name order
+/// otherwise.
+std::vector<std::string> attribute_names(hid_t group);
 
 /// Creates dataset name under parent with shape dims (row-major, the last dimension varies
 /// fastest) and writes data into it; data.size() must equal the product of dims. A dimension may
@@ -72,5 +87,16 @@ void write_dataset(hid_t parent, const std::string& name, std::span<const int> d
 void write_string_attribute(hid_t object, const std::string& name, std::string_view value);
 void write_int_attribute(hid_t object, const std::string& name, int value);
 void write_double_attribute(hid_t object, const std::string& name, double value);
+
+/// Reads dataset name under parent, converted to double or int; dims (if given) receives its
+/// shape. Throws std::runtime_error when it is missing or cannot be read.
+std::vector<double> read_doubles(hid_t parent, const std::string& name,
+                                 std::vector<hsize_t>* dims = nullptr);
+std::vector<int> read_ints(hid_t parent, const std::string& name,
+                           std::vector<hsize_t>* dims = nullptr);
+/// Reads a scalar attribute written by the functions above.
+std::string read_string_attribute(hid_t object, const std::string& name);
+int read_int_attribute(hid_t object, const std::string& name);
+double read_double_attribute(hid_t object, const std::string& name);
 
 } // namespace yarnsim::output::h5

@@ -145,6 +145,68 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
   write_xdmf();
 }
 
+ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
+                         const RunMetadata& meta, Continue from,
+                         std::chrono::milliseconds xdmf_interval)
+    : h5_path_(dir / kH5Name), xdmf_path_(dir / kXdmfName),
+      n_nodes_(static_cast<int>(mesh.reference_positions.cols())),
+      n_elements_(static_cast<int>(mesh.elements.size())),
+      reference_positions_(mesh.reference_positions), xdmf_interval_(xdmf_interval) {
+  if (!std::filesystem::exists(h5_path_))
+    throw std::runtime_error(
+        fmt::format("results: cannot continue {}: the file is missing", h5_path_.string()));
+  file_ = h5::open_file_read_write(h5_path_);
+  const hid_t root = file_.id();
+  {
+    h5::Handle group = h5::open_group(root, "mesh");
+    std::vector<hsize_t> nodes, elements;
+    h5::read_doubles(group.id(), "reference_positions", &nodes);
+    h5::read_ints(group.id(), "elements", &elements);
+    if (nodes.size() != 2 || nodes[0] != hsize_t(n_nodes_) || elements.size() != 2 ||
+        elements[0] != hsize_t(n_elements_))
+      throw std::invalid_argument(fmt::format(
+          "results: cannot continue {}: its mesh has {} nodes and {} elements, the model {} and {}",
+          h5_path_.string(), nodes.empty() ? 0 : nodes[0], elements.empty() ? 0 : elements[0],
+          n_nodes_, n_elements_));
+  }
+  h5::write_string_attribute(root, "deck_text", meta.deck_text);
+  h5::write_string_attribute(root, "deck_path", meta.deck_path);
+  h5::write_string_attribute(root, "version", meta.version);
+  h5::write_int_attribute(root, "threads", meta.threads);
+  h5::write_string_attribute(root, "status", "running");
+  h5::write_string_attribute(root, "message", "");
+
+  steps_group_ = h5::open_group(root, "steps");
+  const std::vector<std::string> names = h5::link_names(steps_group_.id());
+  if (static_cast<int>(names.size()) < from.keep_steps)
+    throw std::runtime_error(
+        fmt::format("results: cannot continue {}: it holds {} steps, the checkpoint {}",
+                    h5_path_.string(), names.size(), from.keep_steps));
+  // Steps written after the checkpoint (a run killed between the two) go.
+  for (std::size_t k = from.keep_steps; k < names.size(); ++k)
+    h5::remove(steps_group_.id(), names[k]);
+  for (int k = 0; k < from.keep_steps; ++k) {
+    const std::string name = fmt::format("{:06d}", k);
+    if (names[k] != name)
+      throw std::runtime_error(fmt::format("results: cannot continue {}: step {} is called '{}'",
+                                           h5_path_.string(), k, names[k]));
+    h5::Handle group = h5::open_group(steps_group_.id(), name);
+    std::vector<std::pair<std::string, double>> scalars;
+    for (const std::string& attribute : h5::attribute_names(group.id()))
+      if (attribute != "increment" && attribute != "time")
+        scalars.emplace_back(attribute, h5::read_double_attribute(group.id(), attribute));
+    std::vector<hsize_t> dims;
+    h5::read_doubles(group.id(), "contacts/gap", &dims);
+    append_xdmf_grids(name, h5::read_double_attribute(group.id(), "time"),
+                      h5::read_int_attribute(group.id(), "increment"), scalars,
+                      dims.empty() ? 0 : static_cast<int>(dims[0]));
+  }
+  steps_written_ = from.keep_steps;
+  h5::flush(root);
+  write_xdmf();
+  last_xdmf_ = std::chrono::steady_clock::now();
+}
+
 ResultsFile::~ResultsFile() {
   if (xdmf_stale_) {
     try {
@@ -181,7 +243,8 @@ void ResultsFile::write_step(const StepResults& step) {
   }
 
   const std::string name = fmt::format("{:06d}", steps_written_);
-  h5::Handle group = h5::create_group(steps_group_.id(), name);
+  // Attribute order tracked: a restart lists the scalars in results.xdmf in the same order.
+  h5::Handle group = h5::create_group(steps_group_.id(), name, true);
   const hid_t g = group.id();
   h5::write_int_attribute(g, "increment", step.increment);
   h5::write_double_attribute(g, "time", step.time);
@@ -209,6 +272,24 @@ void ResultsFile::write_step(const StepResults& step) {
   group.close();
   h5::flush(file_.id());
 
+  append_xdmf_grids(name, step.time, step.increment, step.scalars, n_contacts);
+  ++steps_written_;
+  // The XDMF is rewritten whole, so rewriting it at every step of a long run would cost the
+  // square of the step count: at most once a second, and always at the end. The .h5 holds
+  // every step as soon as this returns.
+  const auto now = std::chrono::steady_clock::now();
+  if (steps_written_ == 1 || now - last_xdmf_ >= xdmf_interval_) {
+    write_xdmf();
+    last_xdmf_ = now;
+    xdmf_stale_ = false;
+  } else {
+    xdmf_stale_ = true;
+  }
+}
+
+void ResultsFile::append_xdmf_grids(const std::string& name, double time, int increment,
+                                    const std::vector<std::pair<std::string, double>>& scalars,
+                                    int n_contacts) {
   // This step's grids in results.xdmf. Connectivity and radius are the mesh's, shared by all
   // steps. A step without contacts has no "contacts" grid: the readers then show no contact
   // block at that time (an empty HDF5 DataItem makes the XDMF 2 reader report an error).
@@ -228,7 +309,7 @@ void ResultsFile::write_step(const StepResults& step) {
                  "          <DataItem Dimensions=\"{3} 3\" NumberType=\"Float\" Precision=\"8\" "
                  "Format=\"HDF\">{2}:{4}/positions</DataItem>\n"
                  "        </Geometry>\n",
-                 step.time, 2 * n_elements_, kH5Name, n_nodes_, step_path);
+                 time, 2 * n_elements_, kH5Name, n_nodes_, step_path);
   append_h5_attribute(yarns, "displacement", "Vector", "Node", nodes3, step_path + "/displacement");
   append_h5_attribute(yarns, "rotation", "Vector", "Node", nodes3, step_path + "/rotations");
   append_h5_attribute(yarns, "reaction_force", "Vector", "Node", nodes3,
@@ -241,8 +322,8 @@ void ResultsFile::write_step(const StepResults& step) {
                       step_path + "/section_force");
   append_h5_attribute(yarns, "section_moment", "Vector", "Cell", cells3,
                       step_path + "/section_moment");
-  append_grid_scalar(yarns, "increment", step.increment);
-  for (const auto& [scalar, value] : step.scalars)
+  append_grid_scalar(yarns, "increment", increment);
+  for (const auto& [scalar, value] : scalars)
     append_grid_scalar(yarns, scalar, value);
   yarns += "      </Grid>\n";
 
@@ -262,25 +343,13 @@ void ResultsFile::write_step(const StepResults& step) {
                    "          <DataItem Dimensions=\"{1} 3\" NumberType=\"Float\" "
                    "Precision=\"8\" Format=\"HDF\">{2}:{3}/position</DataItem>\n"
                    "        </Geometry>\n",
-                   step.time, n_contacts, kH5Name, path);
+                   time, n_contacts, kH5Name, path);
     append_h5_attribute(xdmf_contacts_, "normal", "Vector", "Node", contacts3, path + "/normal");
     append_h5_attribute(xdmf_contacts_, "gap", "Scalar", "Node", std::to_string(n_contacts),
                         path + "/gap");
     append_h5_attribute(xdmf_contacts_, "force", "Scalar", "Node", std::to_string(n_contacts),
                         path + "/force");
     xdmf_contacts_ += "      </Grid>\n";
-  }
-  ++steps_written_;
-  // The XDMF is rewritten whole, so rewriting it at every step of a long run would cost the
-  // square of the step count: at most once a second, and always at the end. The .h5 holds
-  // every step as soon as this returns.
-  const auto now = std::chrono::steady_clock::now();
-  if (steps_written_ == 1 || now - last_xdmf_ >= xdmf_interval_) {
-    write_xdmf();
-    last_xdmf_ = now;
-    xdmf_stale_ = false;
-  } else {
-    xdmf_stale_ = true;
   }
 }
 

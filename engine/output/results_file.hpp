@@ -18,6 +18,7 @@
 //                                                     and 2e+1 (middle, last)
 //   /mesh/node_radius         (n_nodes)             m
 //   /steps/<000000>           attributes increment (int32), time (s), one double per scalar
+//                             (in creation order, tracked)
 //     positions, displacement, rotations (n_nodes, 3)            m, m, rad (rotation vector)
 //     reaction_force, reaction_moment (n_nodes, 3)              N, N m
 //     section_force, section_moment (2 n_elements, 3)           N, N m; row 2e+k is Gauss point
@@ -89,6 +90,16 @@ public:
   /// xdmf_interval: the shortest time between two rewrites of results.xdmf.
   ResultsFile(const std::filesystem::path& dir, const Mesh& mesh, const RunMetadata& meta,
               std::chrono::milliseconds xdmf_interval = std::chrono::seconds(1));
+  /// Goes on with dir/results.h5 of an earlier run of the same model (a restart): keeps its first
+  /// keep_steps steps and removes any later ones, writes the metadata attributes anew with status
+  /// "running", and rewrites results.xdmf for the kept steps. Throws std::runtime_error when the
+  /// file does not open or holds fewer steps, std::invalid_argument when its mesh has other
+  /// sizes.
+  struct Continue {
+    int keep_steps = 0;
+  };
+  ResultsFile(const std::filesystem::path& dir, const Mesh& mesh, const RunMetadata& meta,
+              Continue from, std::chrono::milliseconds xdmf_interval = std::chrono::seconds(1));
   ResultsFile(const ResultsFile&) = delete;
   ResultsFile& operator=(const ResultsFile&) = delete;
   ResultsFile(ResultsFile&&) noexcept = default;
@@ -112,6 +123,10 @@ public:
 
 private:
   void write_xdmf() const;
+  /// Appends the XDMF grids of step `name` (under /steps) to the two collections.
+  void append_xdmf_grids(const std::string& name, double time, int increment,
+                         const std::vector<std::pair<std::string, double>>& scalars,
+                         int n_contacts);
 
   std::filesystem::path h5_path_;
   std::filesystem::path xdmf_path_;

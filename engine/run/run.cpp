@@ -1,14 +1,21 @@
 #include "engine/run/run.hpp"
 
+#include "engine/output/checkpoint_file.hpp"
 #include "engine/output/csv_writer.hpp"
 #include "engine/output/results_file.hpp"
+#include "engine/output/serial_writer.hpp"
+#include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"
 #include "yarnsim/version.hpp"
 
 #include <chrono>
 #include <cstdio>
+#include <deque>
 #include <fmt/format.h>
+#include <map>
 #include <memory>
+#include <optional>
+#include <system_error>
 #include <unistd.h>
 
 namespace yarnsim {
@@ -24,10 +31,58 @@ std::string hms(double seconds) {
   return fmt::format("{:02d}:{:02d}:{:02d}", s / 3600, (s / 60) % 60, s % 60);
 }
 
-/// One CSV per monitor, a row per completed increment.
-class MonitorWriter {
+/// A CSV file of a run: its name in the output folder and its columns with units.
+struct CsvFile {
+  std::string name;
+  std::vector<std::string> columns;
+};
+
+/// A row for a CSV file, computed by the solver thread and written by the writer.
+struct CsvRow {
+  const CsvFile* file;
+  std::vector<double> values;
+};
+
+/// The CSV files of a run, each created on its first row; a restart goes on with those the
+/// checkpoint lists, as they were then. After construction only the writer thread uses it.
+class CsvFiles {
 public:
-  MonitorWriter(const Model& model, const std::filesystem::path& dir) : model_(model) {
+  CsvFiles(std::filesystem::path dir, const std::map<std::string, long>& resume)
+      : dir_(std::move(dir)) {
+    for (const auto& [name, rows] : resume)
+      files_.emplace(
+          name, std::make_unique<output::CsvWriter>(dir_ / name, std::vector<std::string>{}, rows));
+  }
+
+  /// Creates the file now (with its header) unless it is there already.
+  void open(const CsvFile& file) {
+    if (!files_.count(file.name))
+      files_.emplace(file.name,
+                     std::make_unique<output::CsvWriter>(dir_ / file.name, file.columns));
+  }
+
+  void write(const CsvRow& row) {
+    open(*row.file);
+    files_.at(row.file->name)->row(row.values);
+  }
+
+  /// Rows per file, for the checkpoint.
+  std::map<std::string, long> rows() const {
+    std::map<std::string, long> out;
+    for (const auto& [name, writer] : files_)
+      out[name] = writer->rows();
+    return out;
+  }
+
+private:
+  std::filesystem::path dir_;
+  std::map<std::string, std::unique_ptr<output::CsvWriter>> files_;
+};
+
+/// One CSV per monitor, a row per completed increment.
+class Monitors {
+public:
+  explicit Monitors(const Model& model) : model_(model) {
     for (const Monitor& m : model.monitors) {
       std::vector<std::string> cols{"time [s]"};
       switch (m.type) {
@@ -46,11 +101,14 @@ public:
             cols.push_back(fmt::format("gauss{}_{}", g, q));
         break;
       }
-      writers_.push_back(std::make_unique<output::CsvWriter>(dir / (m.name + ".csv"), cols));
+      files_.push_back({m.name + ".csv", std::move(cols)});
     }
   }
 
-  void write(const Simulation& sim, double time) {
+  const std::vector<CsvFile>& files() const { return files_; }
+
+  /// The monitors' rows of the last converged increment.
+  void rows(const Simulation& sim, double time, std::vector<CsvRow>& out) const {
     const State& s = sim.state();
     Eigen::Matrix<double, 6, Eigen::Dynamic> resultants;
     for (std::size_t k = 0; k < model_.monitors.size(); ++k) {
@@ -80,13 +138,13 @@ public:
           for (int i = 0; i < 6; ++i)
             row.push_back(resultants(i, 2 * m.target + g));
       }
-      writers_[k]->row(row);
+      out.push_back({&files_[k], std::move(row)});
     }
   }
 
 private:
   const Model& model_;
-  std::vector<std::unique_ptr<output::CsvWriter>> writers_;
+  std::vector<CsvFile> files_;
 };
 
 /// The force-strain curves of a biaxial test (paper §5, Fig. 3): per increment the mean strain
@@ -95,15 +153,14 @@ private:
 /// (the mean of the pull at a yarn's two ends), then the force of every yarn.
 class BiaxialCurves {
 public:
-  BiaxialCurves(const Model& model, const std::filesystem::path& dir)
-      : model_(model), test_(*model.biaxial) {
-    std::vector<std::string> cols{"time [s]", "strain_warp [-]", "strain_weft [-]",
-                                  "force_warp [N]", "force_weft [N]"};
+  explicit BiaxialCurves(const Model& model) : model_(model), test_(*model.biaxial) {
+    file_.name = "curves.csv";
+    file_.columns = {"time [s]", "strain_warp [-]", "strain_weft [-]", "force_warp [N]",
+                     "force_weft [N]"};
     for (std::size_t i = 0; i < test_.warp_start.size(); ++i)
-      cols.push_back(fmt::format("warp{} [N]", i + 1));
+      file_.columns.push_back(fmt::format("warp{} [N]", i + 1));
     for (std::size_t i = 0; i < test_.weft_start.size(); ++i)
-      cols.push_back(fmt::format("weft{} [N]", i + 1));
-    csv_ = std::make_unique<output::CsvWriter>(dir / "curves.csv", cols);
+      file_.columns.push_back(fmt::format("weft{} [N]", i + 1));
   }
 
   /// Strains and forces of the last converged increment: strain_warp, strain_weft, force_warp,
@@ -133,47 +190,54 @@ public:
     return out;
   }
 
-  void write(const Simulation& sim, double time) {
+  /// The row of curves.csv for values v of time.
+  CsvRow row(double time, const std::vector<double>& v) const {
     std::vector<double> row{time};
-    const std::vector<double> v = values(sim);
     row.insert(row.end(), v.begin(), v.end());
-    csv_->row(row);
+    return {&file_, std::move(row)};
   }
 
 private:
   const Model& model_;
   const BiaxialTest& test_;
-  std::unique_ptr<output::CsvWriter> csv_;
+  CsvFile file_;
 };
 
-/// Writes results, monitors and the progress line after each converged increment.
+/// Everything a completed increment writes, computed by the solver thread.
+struct IncrementOutput {
+  std::vector<CsvRow> rows;
+  std::optional<output::StepResults> step;
+  std::shared_ptr<const SimulationCheckpoint> checkpoint; ///< null: not written this time
+};
+
+/// Hands each converged increment's results, monitor rows and checkpoint to the serial writer,
+/// and prints the progress line.
 class RunObserver final : public SimulationObserver {
 public:
-  RunObserver(const Model& model, const RunOptions& options, output::ResultsFile& results,
-              MonitorWriter& monitors)
-      : model_(model), options_(options), results_(results), monitors_(monitors),
-        tty_(isatty(fileno(stderr))), start_(Clock::now()), last_print_(start_) {
+  RunObserver(const Model& model, const RunOptions& options, const std::string& deck_hash,
+              output::ResultsFile& results, const Monitors& monitors, CsvFiles& csv,
+              output::SerialWriter& writer)
+      : model_(model), options_(options), deck_hash_(deck_hash), results_(results),
+        monitors_(monitors), csv_(csv), writer_(writer), tty_(isatty(fileno(stderr))),
+        start_(Clock::now()), last_print_(start_) {
     t_end_ = model.steps.back().end_time;
+    if (model.biaxial)
+      curves_ = std::make_unique<BiaxialCurves>(model);
   }
 
   void on_increment(const Simulation& sim, const IncrementReport& r) override {
-    monitors_.write(sim, r.time);
-    if (model_.biaxial) {
-      if (!curves_)
-        curves_ = std::make_unique<BiaxialCurves>(model_, options_.output_dir);
-      curves_->write(sim, r.time);
+    auto out = std::make_shared<IncrementOutput>();
+    monitors_.rows(sim, r.time, out->rows);
+    std::vector<double> curve_values;
+    if (curves_) {
+      curve_values = curves_->values(sim);
+      out->rows.push_back(curves_->row(r.time, curve_values));
     }
     const ContactStage* contact = sim.contact();
     if (contact) {
-      if (!contact_csv_)
-        contact_csv_ = std::make_unique<output::CsvWriter>(
-            options_.output_dir / "contact.csv",
-            std::vector<std::string>{"time [s]", "candidates [-]", "active [-]",
-                                     "max_penetration [m]", "max_force [N]"});
-      const std::vector<double> row{r.time, double(contact->candidates()),
-                                    double(contact->active()), contact->max_penetration(),
-                                    contact->max_force()};
-      contact_csv_->row(row);
+      out->rows.push_back({&contact_csv_,
+                           {r.time, double(contact->candidates()), double(contact->active()),
+                            contact->max_penetration(), contact->max_force()}});
       contact_status_ = fmt::format("  contacts {}  max penetration {:.3g} m", contact->active(),
                                     contact->max_penetration());
     }
@@ -191,55 +255,71 @@ public:
       explicit_reported_ = r.step;
     }
     if (step.type == StepType::Explicit && step.energy_monitor) {
-      if (!energy_csv_)
-        energy_csv_ = std::make_unique<output::CsvWriter>(
-            options_.output_dir / "energy.csv",
-            std::vector<std::string>{"time [s]", "kinetic [J]", "internal [J]", "contact [J]",
-                                     "external_work [J]", "prescribed_work [J]", "damping [J]",
-                                     "balance_error [J]", "kinetic/internal [-]"});
       const EnergyBalance e = sim.energy_balance();
       const double stored = e.internal + e.contact;
-      energy_csv_->row(std::vector<double>{r.time, e.kinetic, e.internal, e.contact,
-                                           e.external_work, e.prescribed_work, e.damping, e.error,
-                                           stored > 0 ? e.kinetic / stored : 0.0});
+      out->rows.push_back(
+          {&energy_csv_,
+           {r.time, e.kinetic, e.internal, e.contact, e.external_work, e.prescribed_work, e.damping,
+            e.error, stored > 0 ? e.kinetic / stored : 0.0}});
     }
     const bool last = r.time >= t_end_ * (1 - 1e-12);
     if (r.increment % std::max(1, step.output_every) == 0 || last) {
-      output::StepResults out;
-      out.increment = r.increment;
-      out.time = r.time;
-      out.positions = sim.state().x_n;
-      out.rotations = sim.state().rotation_n;
-      out.reactions = sim.reactions();
-      out.section_resultants = sim.section_resultants();
-      out.scalars = {{"iterations", double(r.iterations)}, {"dt", r.dt}};
-      if (const ContactStage* c = sim.contact()) {
-        const std::vector<ContactPoint> points = c->points();
+      output::StepResults& o = out->step.emplace();
+      o.increment = r.increment;
+      o.time = r.time;
+      o.positions = sim.state().x_n;
+      o.rotations = sim.state().rotation_n;
+      o.reactions = sim.reactions();
+      o.section_resultants = sim.section_resultants();
+      o.scalars = {{"iterations", double(r.iterations)}, {"dt", r.dt}};
+      if (contact) {
+        const std::vector<ContactPoint> points = contact->points();
         const int np = static_cast<int>(points.size());
-        out.contacts.position.resize(3, np);
-        out.contacts.normal.resize(3, np);
-        out.contacts.gap.resize(np);
-        out.contacts.force.resize(np);
+        o.contacts.position.resize(3, np);
+        o.contacts.normal.resize(3, np);
+        o.contacts.gap.resize(np);
+        o.contacts.force.resize(np);
         for (int k = 0; k < np; ++k) {
-          out.contacts.position.col(k) = points[k].position;
-          out.contacts.normal.col(k) = points[k].normal;
-          out.contacts.gap(k) = points[k].gap;
-          out.contacts.force(k) = points[k].force;
+          o.contacts.position.col(k) = points[k].position;
+          o.contacts.normal.col(k) = points[k].normal;
+          o.contacts.gap(k) = points[k].gap;
+          o.contacts.force(k) = points[k].force;
         }
-        out.scalars.push_back({"active_contacts", double(np)});
-        out.scalars.push_back({"max_penetration", c->max_penetration()});
+        o.scalars.push_back({"active_contacts", double(np)});
+        o.scalars.push_back({"max_penetration", contact->max_penetration()});
       }
       if (curves_) {
-        const std::vector<double> v = curves_->values(sim);
         const char* names[] = {"strain_warp", "strain_weft", "force_warp", "force_weft"};
         for (int k = 0; k < 4; ++k)
-          out.scalars.push_back({names[k], v[k]});
+          o.scalars.push_back({names[k], curve_values[k]});
       }
-      results_.write_step(out);
     }
+    // The checkpoint is taken after every increment, written at most once a second and after the
+    // last increment when the run ends (flush_checkpoint): a run killed outright loses at most
+    // a second of work, one that stops otherwise none.
+    latest_ = std::make_shared<const SimulationCheckpoint>(sim.checkpoint());
+    const auto now = Clock::now();
+    latest_written_ = now - last_checkpoint_ >= kCheckpointInterval;
+    if (latest_written_) {
+      out->checkpoint = latest_;
+      last_checkpoint_ = now;
+    }
+    // Written in this order by the writer thread while the solver goes on: the rows, the step,
+    // then the checkpoint, which thus never claims output that is not on disk.
+    writer_.post([this, out] {
+      for (const CsvRow& row : out->rows)
+        csv_.write(row);
+      if (out->step)
+        results_.write_step(*out->step);
+      if (out->checkpoint)
+        write_checkpoint(*out->checkpoint);
+    });
     iterations_ += r.iterations;
     if (options_.progress)
       print_progress(r, last);
+    if (options_.stop_after > 0 && r.increment >= options_.stop_after && !last)
+      throw Interrupted(fmt::format("stopped at t = {:.6g} s after increment {} (--stop-after {})",
+                                    r.time, r.increment, options_.stop_after));
   }
 
   void on_attempt_failed(const Simulation&, double time, double dt,
@@ -255,7 +335,23 @@ public:
       fmt::print(stderr, "\n");
   }
 
+  /// Queues the checkpoint of the last completed increment unless it was written already.
+  void flush_checkpoint() {
+    if (!latest_ || latest_written_)
+      return;
+    writer_.post([this, checkpoint = latest_] { write_checkpoint(*checkpoint); });
+    latest_written_ = true;
+  }
+
 private:
+  static constexpr std::chrono::seconds kCheckpointInterval{1};
+
+  /// On the writer thread, after the output of the increment it was taken at.
+  void write_checkpoint(const SimulationCheckpoint& checkpoint) {
+    output::write_checkpoint(options_.output_dir, checkpoint,
+                             {results_.steps_written(), csv_.rows(), deck_hash_});
+  }
+
   void clear_line() {
     if (tty_ && printed_)
       fmt::print(stderr, "\r\033[K");
@@ -288,18 +384,29 @@ private:
 
   const Model& model_;
   const RunOptions& options_;
+  const std::string& deck_hash_;
   output::ResultsFile& results_;
-  MonitorWriter& monitors_;
+  const Monitors& monitors_;
+  CsvFiles& csv_;
+  output::SerialWriter& writer_;
   bool tty_;
   bool printed_ = false;
   Clock::time_point start_, last_print_;
   double t_end_ = 0;
   long iterations_ = 0;
-  std::unique_ptr<output::CsvWriter> contact_csv_;
-  std::unique_ptr<output::CsvWriter> energy_csv_; ///< explicit steps
-  int explicit_reported_ = -1;                    ///< last explicit step announced
+  const CsvFile contact_csv_{
+      "contact.csv",
+      {"time [s]", "candidates [-]", "active [-]", "max_penetration [m]", "max_force [N]"}};
+  const CsvFile energy_csv_{"energy.csv",
+                            {"time [s]", "kinetic [J]", "internal [J]", "contact [J]",
+                             "external_work [J]", "prescribed_work [J]", "damping [J]",
+                             "balance_error [J]", "kinetic/internal [-]"}}; ///< explicit steps
+  int explicit_reported_ = -1; ///< last explicit step announced
   std::unique_ptr<BiaxialCurves> curves_;
   std::string contact_status_;
+  std::shared_ptr<const SimulationCheckpoint> latest_; ///< of the last completed increment
+  bool latest_written_ = false;
+  Clock::time_point last_checkpoint_{}; ///< when one was last handed to the writer
 };
 
 double node_radius_of(const Section& s, double element_length) {
@@ -308,11 +415,57 @@ double node_radius_of(const Section& s, double element_length) {
   return 0.05 * element_length; // stiffness-only section: a thin tube for drawing
 }
 
+/// Reads the checkpoint of options.restart_from, checks it belongs to this deck, and puts the
+/// earlier run's results.h5, CSV files and checkpoint into the output folder when it is another
+/// one. Throws output::RestartError.
+output::StoredCheckpoint prepare_restart(const Model& model, const RunOptions& options,
+                                         const std::string& deck_hash) {
+  const std::filesystem::path& from = options.restart_from;
+  if (!model.surface_contacts.empty())
+    throw output::RestartError(fmt::format(
+        "cannot restart from {}: the deck has surface contact ('{}'), whose warm starts the "
+        "checkpoint does not hold yet; restart works with spline contact or no contact",
+        from.string(), model.surface_contacts.front().name));
+  output::StoredCheckpoint c = output::read_checkpoint(from);
+  if (c.outputs.deck_hash != deck_hash)
+    throw output::RestartError(fmt::format(
+        "cannot restart from {}: its run was made from another deck (fingerprint {}, this deck "
+        "{}: the text or the geometry it reads differ); a restart goes on with the same deck",
+        from.string(), c.outputs.deck_hash, deck_hash));
+  const std::filesystem::path& to = options.output_dir;
+  std::error_code ec;
+  if (std::filesystem::exists(to) && std::filesystem::equivalent(from, to, ec))
+    return c;
+  std::filesystem::create_directories(to, ec);
+  if (ec)
+    throw std::runtime_error(
+        fmt::format("cannot create the output folder {}: {}", to.string(), ec.message()));
+  std::vector<std::string> files{"results.h5", output::kCheckpointName};
+  for (const auto& [name, rows] : c.outputs.csv_rows)
+    files.push_back(name);
+  for (const std::string& name : files) {
+    std::filesystem::copy_file(from / name, to / name,
+                               std::filesystem::copy_options::overwrite_existing, ec);
+    if (ec)
+      throw output::RestartError(fmt::format("cannot restart from {}: copying {} to {}: {}",
+                                             from.string(), name, to.string(), ec.message()));
+  }
+  return c;
+}
+
 } // namespace
 
 RunSummary run_model(const Model& model, const RunOptions& options) {
   const auto start = Clock::now();
-  Simulation sim(model, SimulationOptions{options.linear_solver, options.stop_requested});
+  const std::string deck_hash = output::deck_fingerprint(options.deck_text, model);
+  std::optional<output::StoredCheckpoint> restart;
+  if (!options.restart_from.empty())
+    restart = prepare_restart(model, options, deck_hash);
+  const SimulationOptions sim_options{options.linear_solver, options.stop_requested};
+  const std::unique_ptr<Simulation> simulation =
+      restart ? std::make_unique<Simulation>(model, sim_options, restart->simulation)
+              : std::make_unique<Simulation>(model, sim_options);
+  Simulation& sim = *simulation;
 
   output::Mesh mesh;
   const int n = static_cast<int>(model.nodes.size());
@@ -334,20 +487,52 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
                "loading{})\n",
                sim.contact()->formulations(), 1e3 * sim.initial_contact_clearance(),
                model.spline_contacts.empty() ? "" : "; the splines' effective gap");
-  output::ResultsFile results(
-      options.output_dir, mesh,
-      output::RunMetadata{options.deck_text, options.deck_path, kVersion, options.threads});
-  MonitorWriter monitors(model, options.output_dir);
-  RunObserver observer(model, options, results, monitors);
+  const output::RunMetadata meta{options.deck_text, options.deck_path, kVersion, options.threads};
+  output::ResultsFile results =
+      restart ? output::ResultsFile(options.output_dir, mesh, meta,
+                                    output::ResultsFile::Continue{restart->outputs.results_steps})
+              : output::ResultsFile(options.output_dir, mesh, meta);
+  const Monitors monitors(model);
+  CsvFiles csv(options.output_dir,
+               restart ? restart->outputs.csv_rows : std::map<std::string, long>{});
+  for (const CsvFile& file : monitors.files())
+    csv.open(file);
+  if (restart)
+    fmt::print(stderr, "restarting from {} after increment {} at t = {:.6g} s\n",
+               options.restart_from.string(), sim.state().increment, sim.state().time);
+  // Declared after the files its tasks write: destroyed (drained) before them.
+  output::SerialWriter writer;
+  RunObserver observer(model, options, deck_hash, results, monitors, csv, writer);
+  // Every completed increment on disk before the files are closed; an error of the writer wins
+  // over the reason the run stopped, since the files are then incomplete.
+  auto drain = [&writer, &observer]() -> std::string {
+    try {
+      observer.flush_checkpoint();
+      writer.drain();
+    } catch (const std::exception& e) {
+      return fmt::format("writing the results: {}", e.what());
+    }
+    return {};
+  };
   try {
     sim.run(&observer);
+    observer.flush_checkpoint();
+    writer.drain();
   } catch (const Interrupted& e) {
     observer.finish();
+    if (const std::string error = drain(); !error.empty()) {
+      results.close(fmt::format("failed: {}", error), error);
+      throw std::runtime_error(error);
+    }
     results.close("interrupted", e.what());
     throw;
   } catch (const std::exception& e) {
     observer.finish();
-    results.close(fmt::format("failed: {}", e.what()), e.what());
+    const std::string error = drain();
+    const std::string why = error.empty() ? std::string(e.what()) : error;
+    results.close(fmt::format("failed: {}", why), why);
+    if (!error.empty())
+      throw std::runtime_error(error);
     throw;
   }
   observer.finish();

@@ -1,6 +1,8 @@
 #pragma once
 // A run from a resolved model to its output folder: results.h5 and results.xdmf, one CSV per
-// monitor, a progress line on the terminal, and the reason the run ended recorded in the results.
+// monitor, checkpoint.h5 for a restart, a progress line on the terminal, and the reason the run
+// ended recorded in the results. The files are written by a serial writer thread while the solver
+// goes on with the next increment (engine/output/serial_writer.hpp).
 
 #include "engine/contact/spline_contact_set.hpp"
 #include "engine/model/model.hpp"
@@ -20,6 +22,12 @@ struct RunOptions {
   LinearSolverKind linear_solver = LinearSolverKind::Auto;
   bool progress = true; ///< progress line on stderr
   const std::atomic<bool>* stop_requested = nullptr;
+  /// Output folder of an earlier run of the same deck to continue from its checkpoint (after its
+  /// last completed increment); empty: start from the beginning.
+  std::filesystem::path restart_from;
+  /// > 0: stop (as interrupted) after the first increment written at or beyond this one, counted
+  /// from the start of the run, before its end.
+  int stop_after = 0;
 };
 
 struct RunSummary {
@@ -31,9 +39,10 @@ struct RunSummary {
   std::string linear_solver;
 };
 
-/// Runs every step of the model. Throws ConvergenceError (exit 3), Interrupted (exit 130) or any
-/// other exception (exit 1) after recording why in results.h5; every completed increment is
-/// already on disk.
+/// Runs every step of the model, or the rest of them from options.restart_from. Throws
+/// output::RestartError (exit 2) when that restart cannot be made, ConvergenceError (exit 3),
+/// Interrupted (exit 130) or any other exception (exit 1) after recording why in results.h5;
+/// every completed increment is then on disk, with the checkpoint taken after it.
 RunSummary run_model(const Model& model, const RunOptions& options);
 
 } // namespace yarnsim

@@ -35,6 +35,7 @@
 #include "engine/solver/simulation.hpp"
 
 #include "engine/math/rotation.hpp"
+#include "engine/solver/checkpoint.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -202,11 +203,19 @@ public:
   static ExplicitStatus stability(const Simulation& sim, const SolutionStep& step);
 
   CentralDifference(Simulation& sim, int step_index);
-  /// Integrates the step to its end time. Throws std::invalid_argument when the requested step
-  /// exceeds the stable limit, ConvergenceError when the run cannot go on, Interrupted.
+  /// Integrates the step to its end time, or from where Simulation's checkpoint left it. Throws
+  /// std::invalid_argument when the requested step exceeds the stable limit, ConvergenceError
+  /// when the run cannot go on, Interrupted.
   void run(SimulationObserver* observer);
+  /// What the next increment needs, for a checkpoint (between increments).
+  ExplicitProgress progress() const;
 
 private:
+  /// Mass scaling, stable step, forces and energy balance at the start of the step, for a
+  /// requested step dt.
+  void start(double dt);
+  /// Takes the place of start() when the run goes on from a checkpoint.
+  void resume(const ExplicitProgress& p);
   void advance(double h, double t_new);
   /// Accepts the increment to t_new: work of the loads, Gauss-point histories with the rotation
   /// increments, triads, contact warm starts (Simulation::commit's bookkeeping, in parallel and
@@ -245,6 +254,8 @@ private:
   double supplied_start_ = 0, supplied_max_ = 0, prescribed_start_ = 0, energy_floor_ = 0;
   double kick_work_ = 0;
   std::vector<double> node_work_; ///< per node, of the half kick in progress
+  double h_target_ = 0;           ///< s, the step size in use
+  long count_ = 0;                ///< increments of this step
 };
 
 ExplicitStatus CentralDifference::estimate(const Simulation& sim, const SolutionStep& step,
@@ -759,6 +770,62 @@ void CentralDifference::run(SimulationObserver* observer) {
     }
   } restore{sim_, sim_.mass_, sim_.rotary_inertia_};
 
+  if (sim_.resume_explicit_ && sim_.resume_explicit_->step == index_) {
+    resume(*sim_.resume_explicit_);
+    sim_.resume_explicit_.reset();
+  } else {
+    start(dt);
+  }
+  // Checkpoints read the integrator's state between increments.
+  struct Running {
+    Simulation& sim;
+    ~Running() { sim.explicit_ = nullptr; }
+  } running{sim_};
+  sim_.explicit_ = this;
+
+  const int every = std::max(1, step_.stable_dt_every);
+  const int output_every = std::max(1, step_.output_every);
+  while (time_ < step_.end_time * (1 - 1e-12)) {
+    if (sim_.options_.stop_requested && sim_.options_.stop_requested->load())
+      throw Interrupted(
+          fmt::format("interrupted at t = {:.6g} s after increment {}", time_, st.increment));
+    if (count_ > 0 && count_ % every == 0) {
+      const ExplicitStatus now = estimate(sim_, step_, scale_, sim_.mass_);
+      status_.critical_dt = now.critical_dt;
+      status_.stable_dt = now.stable_dt;
+      status_.limited_by = now.limited_by;
+      if (status_.stable_dt < dt_min_)
+        fail(fmt::format("the stable time step {:.4g} s fell below the minimum {:.4g} s",
+                         status_.stable_dt, dt_min_));
+      h_target_ = std::min(dt, status_.stable_dt);
+      check_energy(sim_.kinetic_energy() + sim_.strain_energy() + sim_.contact_energy(), "total");
+    }
+    // Land exactly on the end time; avoid a sliver of a last increment.
+    double h = std::min(h_target_, step_.end_time - time_);
+    if (step_.end_time - (time_ + h) < 1e-3 * h)
+      h = step_.end_time - time_;
+    status_.dt = h;
+    advance(h, time_ + h);
+    ++count_;
+    ++status_.increments;
+    sim_.explicit_status_ = status_;
+    check_energy(sim_.kinetic_energy(), "kinetic");
+
+    const bool last = time_ >= step_.end_time * (1 - 1e-12);
+    if (observer && (st.increment % output_every == 0 || last)) {
+      IncrementReport report;
+      report.step = index_;
+      report.increment = st.increment;
+      report.time = time_;
+      report.dt = h;
+      observer->on_increment(sim_, report);
+    }
+  }
+  time_ = step_.end_time;
+}
+
+void CentralDifference::start(double dt) {
+  State& st = sim_.state_;
   time_ = st.time;
   st.x = st.x_n;
   st.alpha.setZero();
@@ -808,51 +875,68 @@ void CentralDifference::run(SimulationObserver* observer) {
       supplied_start_ + sim_.damping_work_ - sim_.external_work_ - sim_.prescribed_work_;
   energy_floor_ = sim_.floor_force_ * sim_.min_length_;
 
-  const int every = std::max(1, step_.stable_dt_every);
-  const int output_every = std::max(1, step_.output_every);
-  double h_target = status_.dt;
-  long count = 0;
-  while (time_ < step_.end_time * (1 - 1e-12)) {
-    if (sim_.options_.stop_requested && sim_.options_.stop_requested->load())
-      throw Interrupted(
-          fmt::format("interrupted at t = {:.6g} s after increment {}", time_, st.increment));
-    if (count > 0 && count % every == 0) {
-      const ExplicitStatus now = estimate(sim_, step_, scale_, sim_.mass_);
-      status_.critical_dt = now.critical_dt;
-      status_.stable_dt = now.stable_dt;
-      status_.limited_by = now.limited_by;
-      if (status_.stable_dt < dt_min_)
-        fail(fmt::format("the stable time step {:.4g} s fell below the minimum {:.4g} s",
-                         status_.stable_dt, dt_min_));
-      h_target = std::min(dt, status_.stable_dt);
-      check_energy(sim_.kinetic_energy() + sim_.strain_energy() + sim_.contact_energy(), "total");
-    }
-    // Land exactly on the end time; avoid a sliver of a last increment.
-    double h = std::min(h_target, step_.end_time - time_);
-    if (step_.end_time - (time_ + h) < 1e-3 * h)
-      h = step_.end_time - time_;
-    status_.dt = h;
-    advance(h, time_ + h);
-    ++count;
-    ++status_.increments;
-    sim_.explicit_status_ = status_;
-    check_energy(sim_.kinetic_energy(), "kinetic");
+  h_target_ = status_.dt;
+  count_ = 0;
+}
 
-    const bool last = time_ >= step_.end_time * (1 - 1e-12);
-    if (observer && (st.increment % output_every == 0 || last)) {
-      IncrementReport report;
-      report.step = index_;
-      report.increment = st.increment;
-      report.time = time_;
-      report.dt = h;
-      observer->on_increment(sim_, report);
-    }
-  }
-  time_ = step_.end_time;
+void CentralDifference::resume(const ExplicitProgress& p) {
+  if (static_cast<long>(p.scale.size()) != static_cast<long>(sim_.model_.elements.size()) ||
+      p.force.cols() != n_ || p.moment.cols() != n_ || p.loads.cols() != n_ ||
+      p.v_half.cols() != n_ || p.omega_half.cols() != n_ || p.pi.cols() != n_)
+    throw std::invalid_argument(fmt::format(
+        "step {} (explicit): the checkpoint's integrator state does not fit the model ({} "
+        "elements, {} nodes)",
+        index_ + 1, sim_.model_.elements.size(), n_));
+  time_ = p.time;
+  count_ = p.count;
+  h_target_ = p.h_target;
+  dt_min_ = p.dt_min;
+  status_ = p.status;
+  scale_ = p.scale;
+  if (std::any_of(scale_.begin(), scale_.end(), [](double s) { return s > 1; }))
+    scaled_masses(sim_, scale_, sim_.mass_, sim_.rotary_inertia_);
+  force_ = p.force;
+  moment_ = p.moment;
+  loads_ = p.loads;
+  v_half_ = p.v_half;
+  omega_half_ = p.omega_half;
+  pi_ = p.pi;
+  supplied_start_ = p.supplied_start;
+  supplied_max_ = p.supplied_max;
+  prescribed_start_ = p.prescribed_start;
+  energy_floor_ = p.energy_floor;
+  kick_work_ = p.kick_work;
+}
+
+ExplicitProgress CentralDifference::progress() const {
+  ExplicitProgress p;
+  p.step = index_;
+  p.time = time_;
+  p.count = count_;
+  p.h_target = h_target_;
+  p.dt_min = dt_min_;
+  p.status = status_;
+  p.scale = scale_;
+  p.force = force_;
+  p.moment = moment_;
+  p.loads = loads_;
+  p.v_half = v_half_;
+  p.omega_half = omega_half_;
+  p.pi = pi_;
+  p.supplied_start = supplied_start_;
+  p.supplied_max = supplied_max_;
+  p.prescribed_start = prescribed_start_;
+  p.energy_floor = energy_floor_;
+  p.kick_work = kick_work_;
+  return p;
 }
 
 void Simulation::run_explicit(int step_index, SimulationObserver* observer) {
   CentralDifference(*this, step_index).run(observer);
+}
+
+ExplicitProgress Simulation::explicit_progress() const {
+  return explicit_->progress();
 }
 
 ExplicitStatus Simulation::explicit_stability(const SolutionStep& step) const {

@@ -2,6 +2,7 @@
 
 #include "engine/beam/nodal_terms.hpp"
 #include "engine/math/rotation.hpp"
+#include "engine/solver/checkpoint.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -190,7 +191,9 @@ struct Simulation::IterationGraph {
                 if (s.contact_)
                   s.contact_->update_candidates(s.state_);
                 if (s.contact_ && s.coupled_candidates_ != s.contact_->candidates_version()) {
-                  s.assembler_->ensure_couplings(s.contact_->couplings());
+                  const std::vector<std::array<int, 6>> groups = s.contact_->couplings();
+                  if (s.assembler_->ensure_couplings(groups))
+                    s.log_pattern_growth(groups);
                   s.coupled_candidates_ = s.contact_->candidates_version();
                 }
                 s.iteration_.residual->setZero();
@@ -506,14 +509,16 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
 
 void Simulation::run(SimulationObserver* observer) {
   double t = state_.time;
-  for (std::size_t s = 0; s < model_.steps.size(); ++s) {
+  // From the first step, or from where a checkpoint left off.
+  for (; step_ < static_cast<int>(model_.steps.size()); ++step_, next_dt_ = 0) {
+    const std::size_t s = step_;
     const SolutionStep& step = model_.steps[s];
     if (step.type == StepType::Explicit) {
       run_explicit(static_cast<int>(s), observer);
       t = step.end_time;
       continue;
     }
-    double dt = std::min(step.dt_initial, step.dt_max);
+    double dt = next_dt_ > 0 ? next_dt_ : std::min(step.dt_initial, step.dt_max);
     int failed = 0;
     while (t < step.end_time * (1 - 1e-12)) {
       if (options_.stop_requested && options_.stop_requested->load())
@@ -548,13 +553,14 @@ void Simulation::run(SimulationObserver* observer) {
       report.dt = h;
       report.failed_attempts = failed;
       failed = 0;
-      if (observer)
-        observer->on_increment(*this, report);
-      // Grow after an easy increment.
+      // Grow after an easy increment; known before the observer, so that a checkpoint holds it.
       if (report.iterations <= std::max(2, step.max_iterations / 4))
         dt = std::min(1.5 * h, step.dt_max);
       else
         dt = h;
+      next_dt_ = dt;
+      if (observer)
+        observer->on_increment(*this, report);
     }
     t = step.end_time;
   }

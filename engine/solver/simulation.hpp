@@ -10,14 +10,20 @@
 #include "engine/solver/linear_solver.hpp"
 #include "engine/state/state.hpp"
 
+#include <array>
 #include <atomic>
 #include <limits>
 #include <memory>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace yarnsim {
+
+struct SimulationCheckpoint; // checkpoint.hpp
+struct ExplicitProgress;
+class CentralDifference; // central_difference.cpp
 
 /// The step size fell below the step's minimum: the run cannot go on (exit code 3).
 class ConvergenceError : public std::runtime_error {
@@ -98,7 +104,15 @@ struct SimulationOptions {
 class Simulation {
 public:
   Simulation(const Model& model, SimulationOptions options = {});
+  /// Continues a run of the same model from a checkpoint taken after one of its increments
+  /// (checkpoint.cpp): run() then goes on bit for bit as the earlier run would have. Throws
+  /// std::invalid_argument when the checkpoint does not fit the model.
+  Simulation(const Model& model, SimulationOptions options, const SimulationCheckpoint& from);
   ~Simulation();
+
+  /// Everything the run carries to its next increment; taken between increments (from
+  /// SimulationObserver::on_increment).
+  SimulationCheckpoint checkpoint() const;
 
   /// Runs every solution step to its end time. Throws ConvergenceError or Interrupted.
   void run(SimulationObserver* observer = nullptr);
@@ -158,6 +172,10 @@ private:
   /// Runs explicit step `step_index` to its end time (central_difference.cpp).
   void run_explicit(int step_index, SimulationObserver* observer);
   friend class CentralDifference;
+  /// The explicit integrator's state while an explicit step runs (central_difference.cpp).
+  ExplicitProgress explicit_progress() const;
+  /// Records the couplings of a call that grew the pattern, for a restart (checkpoint.cpp).
+  void log_pattern_growth(const std::vector<std::array<int, 6>>& groups);
   void apply_prescribed(double t_new);
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
@@ -199,6 +217,15 @@ private:
   std::unique_ptr<IterationGraph> graph_; ///< last: built on the members above
   int analysed_pattern_ = -1;             ///< pattern version the solver analysed
   int coupled_candidates_ = -1;           ///< contact candidate version the pattern holds
+
+  // Where run() starts or goes on, and what a checkpoint needs besides (checkpoint.cpp).
+  int step_ = 0;       ///< solution step in progress
+  double next_dt_ = 0; ///< s, size of the next implicit increment; 0: the step's initial size
+  const CentralDifference* explicit_ = nullptr;       ///< the explicit step running, if any
+  std::unique_ptr<ExplicitProgress> resume_explicit_; ///< explicit step to continue, if any
+  std::vector<std::array<int, 6>> pattern_groups_;    ///< see SimulationCheckpoint
+  std::vector<int> pattern_calls_;
+  std::set<std::array<int, 6>> pattern_logged_;
 };
 
 } // namespace yarnsim

@@ -445,4 +445,94 @@ TEST_F(ResultsOutput, ParaViewOpensTheResultsWhileTheRunWrites) {
 }
 #endif
 
+// ---- going on with the files of an earlier run (a restart) ----
+
+TEST_F(ResultsOutput, ContinuedFileKeepsTheCheckpointsStepsAndGoesOnAsAStraightRun) {
+  const fs::path straight = dir / "straight";
+  {
+    ResultsFile results(straight, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
+    for (int k = 0; k < 4; ++k)
+      results.write_step(test_step(k));
+    results.close("completed", "4 steps");
+  }
+  const fs::path continued = dir / "continued";
+  {
+    ResultsFile results(continued, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
+    for (int k = 0; k < 3; ++k) // the third step was written after the checkpoint of the second
+      results.write_step(test_step(k));
+  }
+  {
+    ResultsFile results(continued, test_mesh(), test_metadata(), ResultsFile::Continue{2},
+                        std::chrono::milliseconds(0));
+    EXPECT_EQ(results.steps_written(), 2);
+    for (int k = 2; k < 4; ++k)
+      results.write_step(test_step(k));
+    results.close("completed", "4 steps");
+  }
+  // The same XDMF text (the scalars in their order, not by name), the same steps.
+  EXPECT_EQ(read_text(continued / "results.xdmf"), read_text(straight / "results.xdmf"));
+  const hid_t a = H5Fopen((straight / "results.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const hid_t b = H5Fopen((continued / "results.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(a, 0);
+  ASSERT_GE(b, 0);
+  for (int k = 0; k < 4; ++k)
+    for (const char* name : {"positions", "rotations", "reaction_force", "section_moment",
+                             "contacts/gap", "contacts/position"}) {
+      const std::string path = "/steps/00000" + std::to_string(k) + "/" + name;
+      const Array x = read_array(a, path), y = read_array(b, path);
+      EXPECT_EQ(x.dims, y.dims) << path;
+      EXPECT_EQ(x.values, y.values) << path;
+    }
+  EXPECT_EQ(H5Lexists(b, "/steps/000004", H5P_DEFAULT), 0);
+  EXPECT_EQ(read_string_attribute(b, "status"), "completed");
+  H5Fclose(a);
+  H5Fclose(b);
+}
+
+TEST_F(ResultsOutput, ContinuingAFileWithFewerStepsOrAnotherMeshIsRefused) {
+  {
+    ResultsFile results(dir, test_mesh(), test_metadata());
+    results.write_step(test_step(0));
+  }
+  EXPECT_THROW(ResultsFile(dir, test_mesh(), test_metadata(), ResultsFile::Continue{2}),
+               std::runtime_error);
+  Mesh other = test_mesh();
+  other.reference_positions.conservativeResize(3, kNodes + 1);
+  other.node_radius.conservativeResize(kNodes + 1);
+  EXPECT_THROW(ResultsFile(dir, other, test_metadata(), ResultsFile::Continue{1}),
+               std::invalid_argument);
+  EXPECT_THROW(ResultsFile(dir / "missing", test_mesh(), test_metadata(), ResultsFile::Continue{0}),
+               std::runtime_error);
+}
+
+TEST_F(ResultsOutput, ContinuedCsvKeepsItsRowsDropsLaterOnesAndAppends) {
+  fs::create_directories(dir);
+  const fs::path file = dir / "tip.csv";
+  {
+    CsvWriter csv(file, {"time [s]", "x [m]"});
+    for (double t : {0.1, 0.2, 0.3})
+      csv.row(std::vector<double>{t, 2 * t});
+  }
+  {
+    // A half-written fourth row, as a killed run may leave.
+    std::ofstream out(file, std::ios::app);
+    out << "0.4,0.";
+  }
+  {
+    CsvWriter csv(file, {"time [s]", "x [m]"}, 2);
+    EXPECT_EQ(csv.rows(), 2);
+    csv.row(std::vector<double>{0.3, 0.6});
+    EXPECT_EQ(csv.rows(), 3);
+  }
+  EXPECT_EQ(read_text(file), "time [s],x [m]\n0.1,0.2\n0.2,0.4\n0.3,0.6\n");
+  // The header is taken from the file when no columns are given.
+  {
+    CsvWriter csv(file, {}, 3);
+    EXPECT_EQ(csv.columns(), 2u);
+  }
+  EXPECT_THROW(CsvWriter(file, {"time [s]", "y [m]"}, 1), std::runtime_error);
+  EXPECT_THROW(CsvWriter(file, {"time [s]", "x [m]"}, 4), std::runtime_error);
+  EXPECT_THROW(CsvWriter(dir / "missing.csv", {"time [s]"}, 0), std::runtime_error);
+}
+
 } // namespace

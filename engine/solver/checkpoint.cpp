@@ -1,0 +1,129 @@
+// Taking and restoring a Simulation's checkpoint (checkpoint.hpp). A restored simulation holds
+// the same numbers as the one that took the checkpoint, bit for bit, wherever they feed the next
+// increment: the converged state and its histories, the step size in use, the work sums, the
+// contact set's search boxes, warm starts and last evaluation, the tangent's sparsity pattern
+// (replayed, so that the fill-reducing ordering and hence the round-off are the same) and, inside
+// an explicit step, the central-difference integrator.
+
+#include "engine/solver/checkpoint.hpp"
+
+#include <fmt/format.h>
+#include <stdexcept>
+
+namespace yarnsim {
+
+namespace {
+
+void require_columns(const char* what, Eigen::Index found, Eigen::Index expected) {
+  if (found != expected)
+    throw std::invalid_argument(
+        fmt::format("checkpoint: {} has {} columns, the model needs {}", what, found, expected));
+}
+
+} // namespace
+
+SimulationCheckpoint Simulation::checkpoint() const {
+  SimulationCheckpoint c;
+  c.step = step_;
+  c.next_dt = next_dt_;
+  c.state = state_;
+  c.reactions = reactions_;
+  c.load_n = load_n_;
+  c.external_work = external_work_;
+  c.prescribed_work = prescribed_work_;
+  c.damping_work = damping_work_;
+  c.energy_reference = energy_reference_;
+  c.total_iterations = total_iterations_;
+  c.explicit_status = explicit_status_;
+  if (explicit_)
+    c.explicit_progress = explicit_progress();
+  // Surface contact is not saved (run_model refuses to restart such a model).
+  if (contact_ && contact_->spline())
+    c.contact = contact_->spline()->snapshot();
+  c.pattern_groups = pattern_groups_;
+  c.pattern_calls = pattern_calls_;
+  c.coupled_candidates = coupled_candidates_;
+  return c;
+}
+
+Simulation::Simulation(const Model& model, SimulationOptions options,
+                       const SimulationCheckpoint& from)
+    : Simulation(model, options) {
+  const int n = state_.n_nodes();
+  const auto ne = static_cast<Eigen::Index>(model.elements.size());
+  if (from.step < 0 || from.step >= static_cast<int>(model.steps.size()))
+    throw std::invalid_argument(fmt::format("checkpoint: step {} of a model with {} steps",
+                                            from.step + 1, model.steps.size()));
+  const State& s = from.state;
+  require_columns("x_n", s.x_n.cols(), n);
+  require_columns("v_n", s.v_n.cols(), n);
+  require_columns("a_n", s.a_n.cols(), n);
+  require_columns("W_n", s.W_n.cols(), n);
+  require_columns("A_n", s.A_n.cols(), n);
+  require_columns("rotation_n", s.rotation_n.cols(), n);
+  require_columns("Q_n", static_cast<Eigen::Index>(s.Q_n.size()), n);
+  require_columns("gauss", static_cast<Eigen::Index>(s.gauss.size()), ne);
+  require_columns("reactions", from.reactions.cols(), n);
+  require_columns("load_n", from.load_n.cols(), n);
+  if (from.contact.has_value() != static_cast<bool>(contact_))
+    throw std::invalid_argument(fmt::format("checkpoint: {} spline contact, the model {}",
+                                            from.contact ? "has" : "has no",
+                                            contact_ ? "has" : "has none"));
+  if (from.explicit_progress && (from.explicit_progress->step != from.step ||
+                                 model.steps[from.step].type != StepType::Explicit))
+    throw std::invalid_argument(fmt::format(
+        "checkpoint: explicit integrator state for step {}, but step {} is in progress and is "
+        "not that explicit step",
+        from.explicit_progress->step + 1, from.step + 1));
+  if (from.pattern_calls.empty()
+          ? !from.pattern_groups.empty()
+          : from.pattern_calls.back() != static_cast<int>(from.pattern_groups.size()))
+    throw std::invalid_argument("checkpoint: pattern growth calls do not cover their groups");
+
+  step_ = from.step;
+  next_dt_ = from.next_dt;
+  state_ = s;
+  state_.x = state_.x_n;
+  state_.alpha.setZero(3, n);
+  reactions_ = from.reactions;
+  load_n_ = from.load_n;
+  external_work_ = from.external_work;
+  prescribed_work_ = from.prescribed_work;
+  damping_work_ = from.damping_work;
+  energy_reference_ = from.energy_reference;
+  total_iterations_ = from.total_iterations;
+  explicit_status_ = from.explicit_status;
+  if (from.explicit_progress)
+    resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);
+  if (contact_ && contact_->spline() && from.contact)
+    contact_->spline()->restore(*from.contact);
+
+  // The pattern grows as it did, call by call, from the beams' pattern.
+  int begin = 0;
+  for (int end : from.pattern_calls) {
+    if (end < begin)
+      throw std::invalid_argument("checkpoint: pattern growth calls are not in order");
+    const std::vector<std::array<int, 6>> groups(from.pattern_groups.begin() + begin,
+                                                 from.pattern_groups.begin() + end);
+    for (const auto& g : groups)
+      for (int node : g)
+        if (node < 0 || node >= n)
+          throw std::invalid_argument(
+              fmt::format("checkpoint: a contact coupling names node index {} of {}", node, n));
+    assembler_->ensure_couplings(groups);
+    log_pattern_growth(groups);
+    begin = end;
+  }
+  coupled_candidates_ = from.coupled_candidates;
+}
+
+void Simulation::log_pattern_growth(const std::vector<std::array<int, 6>>& groups) {
+  // A group met in an earlier growing call is in the pattern since: leaving it out of later calls
+  // changes nothing they add.
+  for (const auto& g : groups)
+    if (pattern_logged_.insert(g).second)
+      pattern_groups_.push_back(g);
+  pattern_calls_.push_back(static_cast<int>(pattern_groups_.size()));
+}
+
+} // namespace yarnsim

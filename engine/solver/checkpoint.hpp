@@ -1,0 +1,60 @@
+#pragma once
+// What a run carries from one completed increment to the next beyond the model: enough for a
+// restart to continue bit for bit where an earlier run stopped (`yarnsim run DECK --restart DIR`,
+// docs/robustness.md). Simulation::checkpoint() takes one after an increment, the Simulation
+// constructor that takes one puts it back (checkpoint.cpp); engine/output/checkpoint_file.* keep
+// it in DIR/checkpoint.h5.
+
+#include "engine/contact/spline_contact_set.hpp"
+#include "engine/solver/simulation.hpp"
+#include "engine/state/state.hpp"
+
+#include <Eigen/Core>
+#include <array>
+#include <optional>
+#include <vector>
+
+namespace yarnsim {
+
+/// The central-difference integrator between two increments of an explicit step
+/// (central_difference.cpp): half-step velocities, momenta, the forces at the committed state,
+/// the mass scaling and the energy guard's sums.
+struct ExplicitProgress {
+  int step = 0;        ///< index of the explicit solution step
+  double time = 0;     ///< s
+  long count = 0;      ///< increments of this step so far (the stable step is estimated every N)
+  double h_target = 0; ///< s, the step size in use
+  double dt_min = 0;   ///< s
+  ExplicitStatus status;
+  std::vector<double> scale;                      ///< element mass factors, n_elements
+  Eigen::Matrix3Xd force, moment;                 ///< net nodal force (N) and moment (N m)
+  Eigen::Matrix<double, 6, Eigen::Dynamic> loads; ///< external loads at the committed time
+  Eigen::Matrix3Xd v_half, omega_half;            ///< of the last step: m/s, rad/s (spatial)
+  Eigen::Matrix3Xd pi;                            ///< spatial angular momentum, kg m^2/s
+  double supplied_start = 0, supplied_max = 0, prescribed_start = 0, energy_floor = 0; ///< J
+  double kick_work = 0;                                                                ///< J
+};
+
+/// The complete state of a Simulation after a completed increment.
+struct SimulationCheckpoint {
+  int step = 0;       ///< index of the solution step in progress (at its end: the last one done)
+  double next_dt = 0; ///< s, the size the next implicit increment tries; 0: the step's initial
+  /// The last converged increment (x = x_n and alpha = 0 between increments).
+  State state;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> reactions;              ///< 6 x n_nodes, N and N m
+  Eigen::Matrix<double, 6, Eigen::Dynamic> load_n;                 ///< external loads at state.time
+  double external_work = 0, prescribed_work = 0, damping_work = 0; ///< J
+  double energy_reference = 0;                                     ///< J
+  int total_iterations = 0;
+  ExplicitStatus explicit_status;
+  std::optional<ExplicitProgress> explicit_progress; ///< when stopped inside an explicit step
+  std::optional<SplineContactSet::Snapshot> contact; ///< when the model has spline contact
+  /// Contact couplings of each call that grew the tangent's pattern, in order (each group once,
+  /// at its first call): replayed through Assembler::ensure_couplings they rebuild the same
+  /// pattern, hence the same ordering and factorisation. pattern_calls[k] is the end of call k.
+  std::vector<std::array<int, 6>> pattern_groups;
+  std::vector<int> pattern_calls;
+  int coupled_candidates = -1; ///< contact candidate version the pattern holds
+};
+
+} // namespace yarnsim

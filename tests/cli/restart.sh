@@ -1,0 +1,122 @@
+#!/usr/bin/env bash
+# A run stopped half-way and continued with --restart gives the same results as a run straight
+# through: every dataset and attribute under /steps and /mesh of results.h5 (h5diff, exact) and
+# every CSV byte for byte. Cases: an implicit contact case (crossing beams, static), a short
+# biaxial fabric (dynamic Newmark, contact, curves.csv), the explicit flying beam (stopped by
+# --stop-after and by SIGINT). Restarts go into a new folder and into the stopped run's own
+# folder. A restart refuses another deck and a folder without a checkpoint (exit 2).
+# Usage: restart.sh YARNSIM REPO WORKDIR
+set -u
+yarnsim="$1"; repo="$2"; work="$3"
+source "$(dirname "${BASH_SOURCE[0]}")/lib/results.sh"
+require_tools h5ls h5dump h5diff xmllint
+rm -rf "$work"; mkdir -p "$work"; cd "$work"
+fail=0
+steps=-1
+
+# Runs yarnsim with the arguments; fails the test unless it exits with the expected code.
+expect() { # label expected-code args...
+  local label="$1" code="$2"; shift 2
+  "$yarnsim" "$@" > "$label.log" 2>&1
+  local got=$?
+  [ "$got" -eq "$code" ] || { echo "FAIL $label: exit $got, expected $code"; cat "$label.log"; fail=1; }
+}
+
+# The restarted folder holds exactly what the straight run wrote.
+same_results() { # label straight-dir restarted-dir
+  local label="$1" a="$2" b="$3" f
+  check_results "$label" "$b" "completed"
+  for f in /steps /mesh; do
+    h5diff "$a/results.h5" "$b/results.h5" "$f" "$f" > "$label.h5diff" 2>&1 ||
+      { echo "FAIL $label: $f of results.h5 differs from the straight run:"; head -20 "$label.h5diff"; fail=1; }
+  done
+  for f in "$a"/*.csv; do
+    cmp -s "$f" "$b/$(basename "$f")" ||
+      { echo "FAIL $label: $(basename "$f") differs from the straight run"; diff "$f" "$b/$(basename "$f")" | head -5; fail=1; }
+  done
+  [ "$(cd "$a" && ls ./*.csv)" = "$(cd "$b" && ls ./*.csv)" ] || { echo "FAIL $label: other CSV files than the straight run"; fail=1; }
+  [ "$steps" -gt 0 ] && echo "$label: $steps steps, every number as in the straight run"
+}
+
+# Straight run, a run stopped after increment N, then restarts into a new folder and in place.
+restart_case() { # label deck N
+  local label="$1" deck="$2" n="$3" part
+  expect "$label-straight" 0 run "$deck" -o "straight-$label" -q --threads 2
+  expect "$label-part" 130 run "$deck" -o "part-$label" -q --threads 2 --stop-after "$n"
+  grep -q "after increment $n (--stop-after $n)" "$label-part.log" ||
+    { echo "FAIL $label: no 'after increment $n (--stop-after $n)' message"; cat "$label-part.log"; fail=1; }
+  grep -q -- "--restart part-$label" "$label-part.log" ||
+    { echo "FAIL $label: the message does not say how to continue"; cat "$label-part.log"; fail=1; }
+  check_results "$label-part" "part-$label" "interrupted"
+  part=$steps
+  [ -s "part-$label/checkpoint.h5" ] || { echo "FAIL $label: no checkpoint.h5 after the stop"; fail=1; }
+  cp -r "part-$label" "inplace-$label"
+  # A row written after the checkpoint (a run killed between the two) is dropped on restart.
+  for f in "inplace-$label"/*.csv; do tail -n 1 "$f" >> "$f"; done
+  expect "$label-restart" 0 run "$deck" --restart "part-$label" -o "restarted-$label" -q --threads 2
+  grep -q "restarting from part-$label after increment" "$label-restart.log" ||
+    { echo "FAIL $label: no 'restarting from ...' line"; cat "$label-restart.log"; fail=1; }
+  same_results "$label (restart into a new folder)" "straight-$label" "restarted-$label"
+  [ "$part" -gt 0 ] && [ "$part" -lt "$steps" ] || { echo "FAIL $label: the stopped run kept $part of $steps steps"; fail=1; }
+  expect "$label-inplace" 0 run "$deck" --restart "inplace-$label" -o "inplace-$label" -q --threads 2
+  same_results "$label (restart in place)" "straight-$label" "inplace-$label"
+  # The stopped run's folder is left as it was.
+  check_results "$label-part-after" "part-$label" "interrupted"
+  [ "$steps" -eq "$part" ] || { echo "FAIL $label: the restart changed the stopped run's folder"; fail=1; }
+}
+
+# 1. Crossing beams in 20 increments (contact opens a pattern and holds warm starts).
+sed -e 's/^dt = 0.25/dt = 0.05/; s/^dt_max = 0.25/dt_max = 0.05/' "$repo/examples/crossing-beams.toml" > crossing.toml
+restart_case crossing crossing.toml 7
+
+# 2. A 3 x 3 plain weave, 10 dynamic increments with contact and the biaxial curves.
+sed -e 's/^n_warp = .*/n_warp = 3/; s/^n_weft = .*/n_weft = 3/' \
+  -e 's/^length_warp = .*/length_warp = 18.18182e-3/; s/^length_weft = .*/length_weft = 18.18182e-3/' \
+  -e 's/^elements_per_spacing = .*/elements_per_spacing = 2/' \
+  -e 's/^max_strain = .*/max_strain = 0.003/; s/^loading_time = .*/loading_time = 0.1/' \
+  "$repo/examples/biaxial-k1.toml" > biaxial.toml
+restart_case biaxial biaxial.toml 4
+
+# 3. The explicit flying beam over 4 s (2000 increments, output every 50): stopped inside the
+# explicit step, where the integrator's half-step velocities and momenta carry over.
+sed -e 's/^end_time = .*/end_time = 4.0/' "$repo/examples/flying-beam-explicit.toml" > flying.toml
+restart_case explicit flying.toml 900
+
+# 4. SIGINT at some point of the explicit run made 50 times longer (75000 increments, output
+# every 250), then a restart.
+sed -e 's/^end_time = .*/end_time = 150.0/; s/^output_every = .*/output_every = 250/' \
+  "$repo/examples/flying-beam-explicit.toml" > long.toml
+expect long-straight 0 run long.toml -o straight-long -q --threads 2
+"$yarnsim" run long.toml -o part-long -q --threads 2 > long-part.log 2>&1 &
+pid=$!
+# Wait for a few written increments (at most 60 s), then interrupt.
+for ((i = 0; i < 600; ++i)); do
+  [ "$(cat part-long/start.csv 2> /dev/null | wc -l)" -ge 6 ] && break
+  kill -0 "$pid" 2> /dev/null || break
+  sleep 0.1
+done
+kill -INT "$pid" 2> /dev/null
+wait "$pid"
+code=$?
+if [ "$code" -ne 130 ]; then
+  echo "FAIL long: exit $code after SIGINT, expected 130 (did the run end before the signal?)"
+  cat long-part.log
+  fail=1
+else
+  check_results long-part part-long "interrupted"
+  part=$steps
+  expect long-restart 0 run long.toml --restart part-long -o restarted-long -q --threads 2
+  same_results "explicit, SIGINT after $part steps" straight-long restarted-long
+fi
+
+# 5. Refusals: another deck, a folder without a checkpoint.
+sed -e 's/^penalty = .*/penalty = 2e5/' crossing.toml > other.toml
+expect other-deck 2 run other.toml --restart part-crossing -o other -q
+grep -q "another deck" other-deck.log || { echo "FAIL other-deck: message lacks 'another deck'"; cat other-deck.log; fail=1; }
+[ -e other ] && { echo "FAIL other-deck: an output folder was made"; fail=1; }
+mkdir -p empty
+expect no-checkpoint 2 run crossing.toml --restart empty -o none -q
+grep -q "holds no checkpoint.h5" no-checkpoint.log || { echo "FAIL no-checkpoint: message lacks 'holds no checkpoint.h5'"; cat no-checkpoint.log; fail=1; }
+
+if [ "$fail" -eq 0 ]; then echo "restart: all checks passed"; fi
+exit "$fail"
