@@ -38,6 +38,7 @@ public:
 
   /// The tangent over the free equations with the fixed pattern; setZero() keeps the pattern.
   SparseMatrix& matrix() { return matrix_; }
+  const SparseMatrix& matrix() const { return matrix_; }
   void zero_matrix();
 
   /// Adds the beams' internal forces to residual (6 n_nodes) and, if want_tangent, their tangents
