@@ -38,6 +38,7 @@ public:
 
   /// The tangent over the free equations with the fixed pattern; setZero() keeps the pattern.
   SparseMatrix& matrix() { return matrix_; }
+  const SparseMatrix& matrix() const { return matrix_; }
   void zero_matrix();
 
   /// Adds the beams' internal forces to residual (6 n_nodes) and, if want_tangent, their tangents
@@ -82,8 +83,9 @@ private:
   std::vector<BeamReference> reference_;
   std::vector<std::vector<int>> colours_;
   SparseMatrix matrix_;
-  std::vector<std::array<int, 18 * 18>> element_slots_; ///< value index per (i, j), -1 if none
-  std::vector<std::array<int, 36>> node_slots_;         ///< value index per node (i, j)
+  std::vector<std::array<int, 18 * 18>>
+      element_slots_;                           ///< value index of (i, j) at 18 j + i, or -1
+  std::vector<std::array<int, 36>> node_slots_; ///< value index per node (i, j)
 };
 
 } // namespace yarnsim

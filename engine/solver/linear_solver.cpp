@@ -3,11 +3,17 @@
 // Eigen's MetisSupport needs <iostream> before it (engineering-notes.md).
 #include <iostream>
 
+#include <Eigen/CholmodSupport>
 #include <Eigen/MetisSupport>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
 #include <Eigen/UmfPackSupport>
+#include <tbb/global_control.h>
 #include <vector>
+
+// OpenBLAS, behind CHOLMOD's supernodes, keeps its own thread pool (engineering-notes.md); weak:
+// absent with another BLAS.
+extern "C" void openblas_set_num_threads(int) __attribute__((weak));
 
 namespace yarnsim {
 
@@ -49,11 +55,12 @@ private:
   Eigen::SparseLU<SparseMatrix, Eigen::MetisOrdering<int>> lu_;
 };
 
-/// LDL^T of the symmetric part. The tangent's pattern is structurally symmetric, so the symmetric
-/// part shares it; the transpose of each entry is found once per pattern.
-class SymmetricLDLTSolver final : public LinearSolver {
+/// The symmetric part (A + A^T) / 2 of a structurally symmetric matrix, refreshed in place: the
+/// transpose of each entry is found once per pattern.
+class SymmetricPart {
 public:
-  void analyze(const SparseMatrix& A) override {
+  const SparseMatrix& matrix() const { return sym_; }
+  void analyze(const SparseMatrix& A) {
     sym_ = A;
     transpose_index_.assign(A.nonZeros(), -1);
     for (int col = 0; col < A.outerSize(); ++col)
@@ -63,17 +70,84 @@ public:
         const int* end = A.innerIndexPtr() + A.outerIndexPtr()[row + 1];
         const int* hit = std::lower_bound(begin, end, col);
         if (hit == end || *hit != col)
-          throw LinearSolverError("ldlt: the matrix pattern is not structurally symmetric");
+          throw LinearSolverError("the matrix pattern is not structurally symmetric");
         transpose_index_[k] = static_cast<int>(hit - A.innerIndexPtr());
       }
-    ldlt_.analyzePattern(sym_);
   }
-  void factorize(const SparseMatrix& A) override {
+  void update(const SparseMatrix& A) {
     const double* a = A.valuePtr();
     double* s = sym_.valuePtr();
     for (Eigen::Index k = 0; k < A.nonZeros(); ++k)
       s[k] = 0.5 * (a[k] + a[transpose_index_[k]]);
-    ldlt_.factorize(sym_);
+  }
+
+private:
+  SparseMatrix sym_;
+  std::vector<int> transpose_index_;
+};
+
+/// Supernodal Cholesky LL^T of the symmetric part (CHOLMOD, METIS ordering): dense BLAS kernels
+/// on the supernodes of the fill. CHOLMOD has no supernodal LDL^T, so an indefinite tangent fails
+/// the LL^T; that iteration then falls back to SimplicialLDLT (analysed on first use).
+class CholmodSolver final : public LinearSolver {
+public:
+  CholmodSolver() {
+    cholmod_common& c = llt_.cholmod();
+    c.nmethods = 1;
+    c.method[0].ordering = CHOLMOD_METIS;
+    c.postorder = 1;
+    c.quick_return_if_not_posdef = 1;
+    c.print = 0; // an indefinite tangent is expected now and then: no warning on stderr
+  }
+  void analyze(const SparseMatrix& A) override {
+    sym_.analyze(A);
+    llt_.analyzePattern(sym_.matrix());
+    ldlt_analysed_ = false;
+  }
+  void factorize(const SparseMatrix& A) override {
+    sym_.update(A);
+    // BLAS threads within the run's limit (--threads): the top separators of a large fabric are
+    // dense blocks of thousands of rows.
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(static_cast<int>(
+          tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
+    llt_.factorize(sym_.matrix());
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(1);
+    use_ldlt_ = llt_.info() != Eigen::Success;
+    if (!use_ldlt_)
+      return;
+    if (!ldlt_analysed_) {
+      ldlt_.analyzePattern(sym_.matrix());
+      ldlt_analysed_ = true;
+    }
+    ldlt_.factorize(sym_.matrix());
+    if (ldlt_.info() != Eigen::Success)
+      throw LinearSolverError("sparse LDLT factorisation failed (singular tangent)");
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
+    return use_ldlt_ ? Eigen::VectorXd(ldlt_.solve(b)) : Eigen::VectorXd(llt_.solve(b));
+  }
+  std::string name() const override { return "cholmod"; }
+
+private:
+  SymmetricPart sym_;
+  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt_;
+  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::MetisOrdering<int>> ldlt_;
+  bool ldlt_analysed_ = false;
+  bool use_ldlt_ = false;
+};
+
+/// LDL^T of the symmetric part (Eigen SimplicialLDLT, METIS ordering).
+class SymmetricLDLTSolver final : public LinearSolver {
+public:
+  void analyze(const SparseMatrix& A) override {
+    sym_.analyze(A);
+    ldlt_.analyzePattern(sym_.matrix());
+  }
+  void factorize(const SparseMatrix& A) override {
+    sym_.update(A);
+    ldlt_.factorize(sym_.matrix());
     if (ldlt_.info() != Eigen::Success)
       throw LinearSolverError("sparse LDLT factorisation failed (singular tangent)");
   }
@@ -81,8 +155,7 @@ public:
   std::string name() const override { return "ldlt"; }
 
 private:
-  SparseMatrix sym_;
-  std::vector<int> transpose_index_;
+  SymmetricPart sym_;
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower, Eigen::MetisOrdering<int>> ldlt_;
 };
 
@@ -95,6 +168,8 @@ std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind) {
     return std::make_unique<UmfpackSolver>();
   if (kind == LinearSolverKind::EigenLU)
     return std::make_unique<SparseLUSolver>();
+  if (kind == LinearSolverKind::Cholmod)
+    return std::make_unique<CholmodSolver>();
   return std::make_unique<SymmetricLDLTSolver>();
 }
 
@@ -107,8 +182,10 @@ LinearSolverKind linear_solver_kind_from(const std::string& name) {
     return LinearSolverKind::LDLTSymmetric;
   if (name == "eigen-lu")
     return LinearSolverKind::EigenLU;
+  if (name == "cholmod")
+    return LinearSolverKind::Cholmod;
   throw std::invalid_argument("unknown linear solver '" + name +
-                              "' (expected 'auto', 'lu', 'ldlt' or 'eigen-lu')");
+                              "' (expected 'auto', 'lu', 'ldlt', 'eigen-lu' or 'cholmod')");
 }
 
 } // namespace yarnsim

@@ -190,6 +190,8 @@ struct Simulation::IterationGraph {
                 // New candidate pairs may grow the pattern: before anything is assembled.
                 if (s.contact_)
                   s.contact_->update_candidates(s.state_);
+                const auto t1 = std::chrono::steady_clock::now();
+                s.stage_times_.broad_phase += std::chrono::duration<double>(t1 - t0).count();
                 if (s.contact_ && s.coupled_candidates_ != s.contact_->candidates_version()) {
                   const std::vector<std::array<int, 6>> groups = s.contact_->couplings();
                   if (s.assembler_->ensure_couplings(groups))
@@ -198,14 +200,14 @@ struct Simulation::IterationGraph {
                 }
                 s.iteration_.residual->setZero();
                 s.assembler_->zero_matrix();
-                s.stage_times_.contact_search += seconds_since(t0);
+                s.stage_times_.other_assembly += seconds_since(t1);
               }),
         narrow(graph,
                [&s](const tbb::flow::continue_msg&) {
                  const auto t0 = std::chrono::steady_clock::now();
                  if (s.contact_)
                    s.iteration_.veto = s.contact_->project(s.state_, true);
-                 s.stage_times_.contact_search += seconds_since(t0);
+                 s.stage_times_.narrow_phase += seconds_since(t0);
                }),
         beams(graph,
               [&s](const tbb::flow::continue_msg&) {

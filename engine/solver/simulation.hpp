@@ -61,9 +61,10 @@ public:
 
 /// Wall time spent in each stage of the Newton iterations since the start of the run, s.
 struct StageTimes {
-  double contact_search = 0;    ///< broad and narrow phase of the contact
+  double broad_phase = 0;       ///< contact candidates: box refit and search
+  double narrow_phase = 0;      ///< closest-point projections and pair kernels (beside the beams)
   double beam_assembly = 0;     ///< beam residual and tangent into the matrix
-  double other_assembly = 0;    ///< contact, inertia and load terms
+  double other_assembly = 0;    ///< zeroing, pattern growth; contact, inertia and load terms
   double convergence_check = 0; ///< norms, and the symbolic analysis when the pattern changed
   double factorisation = 0;
   double solve = 0;
