@@ -194,6 +194,9 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
     RunSummary summary;
     Model model;
     ExplicitStatus scaling; ///< explicit runs: stable step and mass scaling at the start
+    /// A run that stopped early (no convergence) and left a curve: plotted as far as it got,
+    /// left out of the summary and the contact maps. Empty for a completed run.
+    std::string stopped;
   };
   std::vector<Done> done;
   for (const StudyCase& c : study.cases) {
@@ -234,6 +237,11 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
         const std::string what = by_path ? fmt::format("{} ({})", c.name, taken) : c.name;
         outcome.failures.push_back(fmt::format("{}: {}", what, e.what()));
         fmt::print(stderr, "case {} stopped: {}\n", what, e.what());
+        if (std::filesystem::exists(run.output_dir / "curves.csv")) {
+          const double k = model.biaxial->strain_ratio;
+          const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
+          done.push_back({&c, taken, folder, label, k, RunSummary{}, std::move(model), {}, what});
+        }
       }
     }
   }
@@ -250,6 +258,9 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
     plots::CurveSet& set = sets[r];
     set.label = fmt::format("{} ({:.1f} s, {} increments)", d.label, d.summary.wall_seconds,
                             d.summary.increments);
+    if (!d.stopped.empty() && cols.size() >= 5 && !cols[1].empty())
+      set.label = fmt::format("{} (stopped at {:.2f} % strain)", d.label,
+                              100 * std::max(cols[1].back(), cols[2].back()));
     // The curves start at the undeformed state.
     set.strain_warp.push_back(0);
     set.strain_weft.push_back(0);
@@ -281,6 +292,8 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
              "max_difference_to_implicit_past_toe [%],force_warp_end [N],force_weft_end [N]\n";
   auto optional = [](double v) { return std::isfinite(v) ? fmt::format("{:.6g}", v) : ""; };
   for (std::size_t r = 0; r < done.size(); ++r) {
+    if (!done[r].stopped.empty())
+      continue;
     const Done& d = done[r];
     const plots::CurveSet& set = sets[r];
     const auto [eps_warp, eps_weft] = [&] {
@@ -364,7 +377,7 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
   }
   for (const std::string& name : study.contact_maps)
     for (const Done& d : done) {
-      if (d.c->name != name)
+      if (d.c->name != name || !d.stopped.empty())
         continue;
       std::vector<Eigen::Matrix3Xd> yarns;
       for (const Spline& s : d.model.splines) {
