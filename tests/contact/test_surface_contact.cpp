@@ -491,8 +491,11 @@ TEST(SurfaceContact, RigidMotionsDoNoWork) {
     const Vector3d centre = 1e-3 * Vector3d(u(rng), u(rng), u(rng));
     Vec24 motion;
     for (int i = 0; i < 24; ++i) {
-      const SurfaceNode& n = (i < 12 ? p.a : p.b)[(i % 12 % 6) / 3];
+      // Through a pointer: bound as `(i < 12 ? p.a : p.b)[k]`, the reference read other data in
+      // the sanitizer build (this test then failed there only).
+      const SurfaceNode* surface = i < 12 ? p.a : p.b;
       const int j = i % 12;
+      const SurfaceNode& n = surface[(j % 6) / 3];
       if (j < 6) {
         motion(i) = dphi.cross(n.position - centre)(j % 3);
       } else {
