@@ -116,6 +116,15 @@ bool SurfaceContactSet::update_candidates(const State& state) {
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
       work_.push_back({static_cast<int>(k), p, {}});
+  by_second_.resize(work_.size());
+  for (std::size_t i = 0; i < by_second_.size(); ++i)
+    by_second_[i] = i;
+  std::sort(by_second_.begin(), by_second_.end(), [&](std::size_t i, std::size_t j) {
+    const Work& p = work_[i];
+    const Work& q = work_[j];
+    return std::tie(p.definition, p.pair.second, p.pair.first) <
+           std::tie(q.definition, q.pair.second, q.pair.first);
+  });
   return true;
 }
 
@@ -246,20 +255,11 @@ void SurfaceContactSet::share_merging_contacts() {
     q.weight *= w;
   };
   // work_ is sorted by (definition, first, second): pairs sharing a first element are adjacent;
-  // pairs sharing a second element are found through a sorted index.
+  // pairs sharing a second element are adjacent in by_second_.
   for (std::size_t i = 0; i + 1 < work_.size(); ++i)
     share(work_[i], work_[i + 1], true);
-  std::vector<std::size_t> by_second(work_.size());
-  for (std::size_t i = 0; i < by_second.size(); ++i)
-    by_second[i] = i;
-  std::sort(by_second.begin(), by_second.end(), [&](std::size_t i, std::size_t j) {
-    const Work& p = work_[i];
-    const Work& q = work_[j];
-    return std::tie(p.definition, p.pair.second, p.pair.first) <
-           std::tie(q.definition, q.pair.second, q.pair.first);
-  });
-  for (std::size_t k = 0; k + 1 < by_second.size(); ++k)
-    share(work_[by_second[k]], work_[by_second[k + 1]], false);
+  for (std::size_t k = 0; k + 1 < by_second_.size(); ++k)
+    share(work_[by_second_[k]], work_[by_second_[k + 1]], false);
 }
 
 std::vector<std::array<int, 6>> SurfaceContactSet::couplings() const {

@@ -57,6 +57,8 @@ private:
   std::vector<contact::SuperEllipse> sections_; ///< per surface
   std::vector<std::unique_ptr<Definition>> definitions_;
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
+  /// Indices into work_ sorted by (definition, second, first); rebuilt with the work list.
+  std::vector<std::size_t> by_second_;
   struct Committed {
     double zeta_A, theta_A, zeta_B, theta_B;
     bool active;

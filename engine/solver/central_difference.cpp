@@ -322,13 +322,12 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
   double w2_contact = 0;
   std::string contact_name;
   if (sim.contact_) {
-    // Lightest moving node of a group of contact curves (nodes(c): the nodes of curve c) and
-    // the group's smallest section size (size(c), m).
-    auto lightest = [&](const std::vector<int>& curves, auto nodes, auto size, double& radius) {
+    // Lightest moving node of a group of splines, and the group's smallest radius (m).
+    auto lightest = [&](const std::vector<int>& splines, double& radius) {
       double m = std::numeric_limits<double>::infinity();
-      for (int c : curves) {
-        radius = std::min(radius, size(c));
-        for (int node : nodes(c)) {
+      for (int c : splines) {
+        radius = std::min(radius, model.splines[c].radius);
+        for (int node : model.splines[c].nodes) {
           bool moves = false;
           for (int k = 0; k < 3; ++k)
             moves = moves || assembler.equation(6 * node + k) >= 0;
@@ -348,12 +347,10 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
         contact_name = name;
       }
     };
-    auto spline_nodes = [&](int s) { return model.splines[s].nodes; };
-    auto spline_size = [&](int s) { return model.splines[s].radius; };
     for (const SplineContactDefinition& def : model.spline_contacts) {
       double r_min = std::numeric_limits<double>::infinity();
-      double m_a = lightest(def.group_a, spline_nodes, spline_size, r_min);
-      double m_b = lightest(def.group_b, spline_nodes, spline_size, r_min);
+      double m_a = lightest(def.group_a, r_min);
+      double m_b = lightest(def.group_b, r_min);
       if (def.self_contact) // pairs within a group too
         m_a = m_b = std::min(m_a, m_b);
       consider(def.name, def.law, m_a, m_b, r_min);
