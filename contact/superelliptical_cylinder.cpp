@@ -130,6 +130,54 @@ SuperEllipticalCylinder::SuperEllipticalCylinder(const SurfaceNode& node_A,
   }
 }
 
+namespace {
+
+/// S(t) = t^3 (10 - 15 t + 6 t^2) clamped to [0, 1], and S'(t) = 30 t^2 (1 - t)^2.
+double smooth_step(double t, double& derivative) {
+  if (t <= 0.0) {
+    derivative = 0.0;
+    return 0.0;
+  }
+  if (t >= 1.0) {
+    derivative = 0.0;
+    return 1.0;
+  }
+  derivative = 30.0 * t * t * (1.0 - t) * (1.0 - t);
+  return t * t * t * (10.0 + t * (-15.0 + 6.0 * t));
+}
+
+} // namespace
+
+double SuperEllipticalCylinder::share(double zeta, double half_width, double* derivative) const {
+  const double h = half_width;
+  double value = 1.0;
+  double slope = 0.0;
+  if (h <= 0.0) {
+    value = owns(zeta) ? 1.0 : 0.0;
+  } else {
+    if (has_previous_) {
+      double d = 0.0;
+      value = smooth_step((zeta + 1.0 + h) / (2.0 * h), d);
+      slope = d / (2.0 * h);
+    } else if (zeta < -1.0 - kEndBand) {
+      value = 0.0;
+    }
+    if (!closes_end_) {
+      double d = 0.0;
+      const double v = smooth_step((1.0 + h - zeta) / (2.0 * h), d);
+      slope = slope * v - value * d / (2.0 * h);
+      value *= v;
+    } else if (zeta > 1.0 + kEndBand) {
+      value = 0.0;
+      slope = 0.0;
+    }
+  }
+  if (derivative != nullptr) {
+    *derivative = slope;
+  }
+  return value;
+}
+
 Eigen::Vector3d SuperEllipticalCylinder::previous_d_zeta(double theta) const {
   if (!has_previous_) {
     return Eigen::Vector3d::Zero();

@@ -122,6 +122,20 @@ public:
            (zeta < 1.0 - kEndBand || (closes_end_ && zeta <= 1.0 + kEndBand));
   }
 
+  /// Share of a contact at zeta that this element carries, in [0, 1], with d(share)/dzeta in
+  /// `derivative` if given. At a node between two elements of a yarn the share passes smoothly
+  /// from one element to the other over the window |zeta -+ 1| < h (h = `half_width`, in zeta,
+  /// 0 < h < 1):
+  ///   share = S((zeta + 1 + h) / (2 h)) at node A if the element before is known (`previous`),
+  ///   share = S((1 + h - zeta) / (2 h)) at node B unless the element closes its yarn,
+  ///   S(t) = t^3 (10 - 15 t + 6 t^2) on [0, 1] (0 below, 1 above; S' and S'' vanish at both
+  ///   ends, and S(t) + S(1 - t) = 1),
+  /// so that the two elements of a node, evaluated at the same point (zeta and zeta + 2 on a
+  /// straight yarn), carry shares that sum to one. A yarn's own ends (no element before, or
+  /// `closes_end`) are sharp: share 1 up to the end, 0 beyond. `half_width` <= 0 gives the sharp
+  /// ownership of owns() everywhere.
+  double share(double zeta, double half_width, double* derivative = nullptr) const;
+
   /// Axis point (1 - zeta)/2 x_A + (1 + zeta)/2 x_B, metres.
   Eigen::Vector3d axis_point(double zeta) const;
 

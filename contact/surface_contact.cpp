@@ -839,6 +839,20 @@ void ridge(const Cylinder& A, const Cylinder& B, const SurfaceContactOptions& op
   }
 }
 
+/// Share of coordinate i (0: zeta_A, 2: zeta_B) of a solution in `mode`, with its derivative
+/// with respect to zeta: a ridge's fixed zeta = -1 holds the whole contact, see
+/// SurfaceDegeneration::RidgeOnA.
+double coordinate_share(const Cylinder& s, const Mode& mode, int i, double zeta,
+                        const SurfaceContactOptions& opt, double* derivative = nullptr) {
+  if (is_ridge(mode.degeneration) && mode.fixed[i]) {
+    if (derivative != nullptr) {
+      *derivative = 0.0;
+    }
+    return 1.0;
+  }
+  return s.share(zeta, opt.end_window, derivative);
+}
+
 LocalProjection project(const Cylinder& A, const Cylinder& B, const SurfaceProjectionStart& start,
                         const SurfaceContactOptions& opt) {
   LocalProjection out;
@@ -927,7 +941,8 @@ LocalProjection project(const Cylinder& A, const Cylinder& B, const SurfaceProje
     res.status = s.left ? ProjectionStatus::OutOfRange : ProjectionStatus::NotConverged;
   } else if (!a.found) {
     res.status = ProjectionStatus::NotConverged; // only far-side critical points were found
-  } else if (!(A.owns(s.c(0)) && B.owns(s.c(2)))) {
+  } else if (!(coordinate_share(A, a.mode, 0, s.c(0), opt) > 0.0 &&
+               coordinate_share(B, a.mode, 2, s.c(2), opt) > 0.0)) {
     res.status = ProjectionStatus::OutOfRange;
   } else if (start.warm && (std::abs(s.c(0) - warm(0)) > 2.0 * opt.jump_fraction ||
                             std::abs(s.c(2) - warm(2)) > 2.0 * opt.jump_fraction ||
@@ -1019,6 +1034,9 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
   out.zeta_B = lp.result.zeta_B;
   out.theta_B = lp.result.theta_B;
   out.active = false;
+  out.share = 0.0;
+  out.share_A = 0.0;
+  out.share_B = 0.0;
   out.penetration_rate = 0.0;
   out.force = 0.0;
   out.potential = 0.0;
@@ -1069,11 +1087,22 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
     out.penetration_rate = -grad.dot(rates->rate);
   }
   const double pdot = out.penetration_rate;
-  out.force = law.force(p, pdot);
-  out.potential = law.potential(p);
+  // The pair carries its share w of the contact near a node (SurfaceContactOptions::end_window):
+  // residual w (-f grad g_n), tangent w K + (-f grad g_n) grad w^T.
+  const double f = law.force(p, pdot);
+  double dshare[2] = {0.0, 0.0};
+  const double share_a = coordinate_share(A, mode, 0, lp.c(0), options, &dshare[0]);
+  const double share_b = coordinate_share(B, mode, 2, lp.c(2), options, &dshare[1]);
+  const double w = share_a * share_b;
+  out.share = w;
+  out.share_A = share_a;
+  out.share_B = share_b;
+  out.force = w * f;
+  out.potential = w * law.potential(p);
   out.active = true;
-  out.residual = -out.force * grad;
+  out.residual = -f * grad;
   if (!options.compute_tangent) {
+    out.residual *= w;
     return false;
   }
 
@@ -1083,7 +1112,6 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
   //   tangent = fp grad grad^T - f hess g_n = (fp + c) grad grad^T - c hess Phi*.
   // The low-rank part is U^T C U with U = [G; D_f; grad^T] (8 x 24) and
   // C = diag(-c I3, c H_ff^-1, fp + c): one 24 x 8 x 24 product.
-  const double f = out.force;
   const double fp = law.stiffness(p, pdot);
   const double c = f * sg / dist;
   const Mat4 h = phi_hessian(e);
@@ -1104,14 +1132,14 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
   const Mat4 h_inv = Eigen::PartialPivLU<Mat4>(h_free).inverse();
   const Mat4x24 y = h_inv.lazyProduct(d_free); // H_ff^-1 D_f
   Eigen::Matrix<double, 8, 24> u;
-  Eigen::Matrix<double, 8, 24> w;
+  Eigen::Matrix<double, 8, 24> cu; // C U
   u.topRows<3>() = gj;
   u.middleRows<4>(3) = d_free;
   u.row(7) = grad.transpose();
-  w.topRows<3>() = -c * gj;
-  w.middleRows<4>(3) = c * y;
-  w.row(7) = (fp + c) * grad.transpose();
-  out.tangent.noalias() = u.transpose().lazyProduct(w);
+  cu.topRows<3>() = -c * gj;
+  cu.middleRows<4>(3) = c * y;
+  cu.row(7) = (fp + c) * grad.transpose();
+  out.tangent.noalias() = u.transpose().lazyProduct(cu);
   Matrix3d rot[2][2];
   for (int x = 0; x < 2; ++x) {
     const Cylinder::Point& pt = e.p[x];
@@ -1181,6 +1209,42 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
       out.tangent.noalias() -= (fv * grad) * grad_pdot.transpose();
     }
   }
+  // grad w = w_,zeta_A grad zeta_A + w_,zeta_B grad zeta_B, with grad c_f = -H_ff^-1 (D_f +
+  // H_fF grad c_F^T) for the free coordinates (the implicit function theorem on r_f = 0) and
+  // grad c_F known for the fixed ones.
+  const double dw[2] = {dshare[0] * share_b, share_a * dshare[1]};
+  if (dw[0] != 0.0 || dw[1] != 0.0) {
+    Vec24 grad_w = Vec24::Zero();
+    for (int x = 0; x < 2; ++x) {
+      const int i = 2 * x;
+      if (dw[x] == 0.0) {
+        continue;
+      }
+      if (mode.fixed[i]) {
+        grad_w += dw[x] * fd.grad[i];
+        continue;
+      }
+      Vec24 grad_zeta = -y.row(i).transpose();
+      for (int k = 0; k < 4; ++k) {
+        if (!mode.fixed[k]) {
+          continue;
+        }
+        Vec4 hk = h.col(k);
+        for (int l = 0; l < 4; ++l) {
+          if (mode.fixed[l]) {
+            hk(l) = 0.0;
+          }
+        }
+        grad_zeta -= (h_inv.row(i).dot(hk)) * fd.grad[k];
+      }
+      grad_w += dw[x] * grad_zeta;
+    }
+    out.tangent *= w;
+    out.tangent.noalias() += out.residual * grad_w.transpose();
+  } else if (w != 1.0) {
+    out.tangent *= w;
+  }
+  out.residual *= w;
   return true;
 }
 

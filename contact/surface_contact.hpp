@@ -58,6 +58,13 @@ struct SurfaceContactOptions {
   /// Iterates farther than this beyond an element's ends (in elements) end the solve as
   /// OutOfRange.
   double max_extension = 1.0;
+  /// Half-width h of the window, in zeta, over which a contact near a node between two
+  /// elements of a yarn passes from one element's pair to the other's
+  /// (SuperEllipticalCylinder::share); 0 < h < 1, or 0 for sharp ownership. Each pair carries
+  /// its share of the force, so a contact crossing a node, and a contact whose own critical
+  /// point runs past a node where the next element holds a contact of its own (two overlaps of
+  /// a crossing merging), changes its force continuously instead of jumping.
+  double end_window = 0.25;
   /// Use the Flat paths for crossing pairs of sections with m > 2. Without them the solver
   /// meets the flat vertices' zero curvature: Newton slows to linear convergence and the
   /// projection's derivative, hence the tangent, grows without bound near a vertex contact.
@@ -109,11 +116,18 @@ struct SurfaceContactResult {
   double gap = 0.0;              ///< signed gap g_n = +-|g|: negative when the surfaces overlap, m
   double penetration = 0.0;      ///< p = -g_n, metres
   double penetration_rate = 0.0; ///< dp/dt, m/s (zero without SurfacePairRates)
-  double force = 0.0;            ///< normal force magnitude f from the law, N
-  double potential = 0.0;        ///< the law's elastic potential U(p), J
-  /// Owned by this pair (Converged or Jumped) with p > 0. Only then are residual and tangent
-  /// non-zero.
+  double force = 0.0;            ///< normal force carried: the share times the law's f(p), N
+  double potential = 0.0;        ///< the share times the law's elastic potential U(p), J
+  /// Owned by this pair (Converged or Jumped) with p > 0 and a non-zero share. Only then are
+  /// residual and tangent non-zero.
   bool active = false;
+  /// Share of the contact this pair carries near a node between elements, in (0, 1]
+  /// (SurfaceContactOptions::end_window): the product of both surfaces' shares at the contact
+  /// point (1 on a ridge coordinate). `force`, `potential`, `residual` and `tangent` include it
+  /// (the tangent with the share's own derivative).
+  double share = 1.0;
+  double share_A = 1.0; ///< A's factor of `share` (its share at zeta_A)
+  double share_B = 1.0; ///< B's factor of `share`
   /// Contact contribution to the internal force vector, dU/dd = -f grad g_n (N for
   /// translations, N m per unit Rodrigues parameter for rotations): added to the internal
   /// forces. The engine's Newton unknowns are additive increments of alpha, so this is the
@@ -146,9 +160,11 @@ struct SurfaceContactResult {
 /// where they are, and the separated problem is a well-conditioned minimum that a descent method
 /// finds reliably. Newton's method on the real problem finishes from there.
 ///
-/// Ownership: a solution outside an element's zeta range (SuperEllipticalCylinder::owns)
-/// belongs to a neighbour and is OutOfRange, as is an iterate that leaves the range by more than
-/// `max_extension`. At a convex kink between two elements of a yarn (a crest facing the other
+/// Ownership: a solution with no share in an element (SuperEllipticalCylinder::share: beyond
+/// the window around a node shared with a neighbour, or beyond a yarn's end) belongs to a
+/// neighbour and is OutOfRange, as is an iterate that leaves the range by more than
+/// `max_extension`; within the window both elements' pairs hold the contact, each with its
+/// share. At a convex kink between two elements of a yarn (a crest facing the other
 /// yarn), each element's own solution lies beyond the shared node; when the element after the
 /// kink knows the one before it (`previous`), it owns the contact on the shared section
 /// (RidgeOnA, RidgeOnB). See SurfaceDegeneration for the other degenerate paths: near-parallel

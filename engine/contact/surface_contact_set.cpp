@@ -172,25 +172,26 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
         }
       });
 
-  share_merging_contacts();
+  share_split_contacts();
   summary_ = {};
   summary_.candidates = static_cast<int>(work_.size());
   summary_.min_gap = std::numeric_limits<double>::infinity();
-  double active_weight = 0;
+  double active_share = 0;
   for (const Work& w : work_) {
     const auto& r = w.result;
     if (r.status == contact::ProjectionStatus::Converged)
       summary_.min_gap = std::min(summary_.min_gap, r.gap);
     if (!r.active)
       continue;
-    // Contact points: a contact shared by two pairs counts once in all (w = 1/2 each).
-    active_weight += w.weight;
+    // Contact points: a contact near a node, held by two pairs, counts once in all (their
+    // shares sum to one).
+    active_share += w.factor * r.share;
     summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
-    summary_.max_force = std::max(summary_.max_force, w.weight * r.force);
-    summary_.potential += w.weight * r.potential;
-    summary_.total_force += w.weight * r.force;
+    summary_.max_force = std::max(summary_.max_force, w.factor * r.force);
+    summary_.potential += w.factor * r.potential;
+    summary_.total_force += w.factor * r.force;
   }
-  summary_.active = static_cast<int>(std::lround(active_weight));
+  summary_.active = static_cast<int>(std::lround(active_share));
 
   // Veto: a pair in contact at the last converged increment, or now, whose projection failed or
   // jumped.
@@ -217,21 +218,20 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
   return {};
 }
 
-void SurfaceContactSet::share_merging_contacts() {
-  // Two consecutive elements of one surface meet at a node, where their cylinders overlap or part
-  // (a kink). A pair of the other surface's element with each of them holds its own overlap; when
-  // the two overlaps come together (a contact pressing into a valley between the two cylinders,
-  // or two patches of a crossing coalescing as a crimped yarn straightens) both pairs find the
-  // same point, and counting both doubles the stiffness, while dropping one when its solution
-  // leaves its range makes the force jump. So two active pairs that share one element, whose other
-  // elements are neighbours on one surface, share their contact by the distance d between their
-  // points on the shared element:
-  //   w = 1 - phi(d / l) / 2,  phi(r) = (1 - r^2)^2 for r < 1, else 0,  l = min(a, b) / 2,
-  // each pair's residual and tangent times w: one contact (w = 1/2 each) where the points
-  // coincide, two (w = 1) once they are l apart, smooth in between. Separate patches around a
-  // crossing lie farther apart than l and keep w = 1. The tangent leaves out dw/dd.
+void SurfaceContactSet::share_split_contacts() {
+  // The surface of a yarn is kinked at the nodes between its elements' cylinders. Where the kink
+  // faces the other yarn as a valley, the pairs of the two elements with one element of the
+  // other yarn find two critical points, one on either side of the node, where a smooth yarn
+  // would have one contact; their shares (contact::SurfaceContactOptions::end_window) then sum
+  // to more than one. Where the two points lie within l of each other on the shared element
+  // (l = min(a, b) / 2 of its surface), the pairs' forces are scaled by
+  //   m = 1 - phi + phi / (s_p + s_q),  phi = (1 - r^2)^2 for r = d / l < 1, else 0,
+  // s_p, s_q the two pairs' shares on the kinked side: one contact in all where the points
+  // coincide, two separate ones from l apart. Where one pair's point is the other's seen from
+  // across the node (a contact passing a node of a straight or convex stretch), s_p + s_q = 1
+  // and m = 1: the windows share such a contact already. The tangent leaves out dm/dd.
   for (Work& w : work_)
-    w.weight = 1.0;
+    w.factor = 1.0;
   auto share = [&](Work& p, Work& q, bool shared_first) {
     if (p.definition != q.definition || !p.result.active || !q.result.active)
       return;
@@ -250,9 +250,12 @@ void SurfaceContactSet::share_merging_contacts() {
     const double r = (x_p - x_q).norm() / l;
     if (r >= 1)
       return;
-    const double w = 1 - 0.5 * (1 - r * r) * (1 - r * r);
-    p.weight *= w;
-    q.weight *= w;
+    const double phi = (1 - r * r) * (1 - r * r);
+    const double sum =
+        shared_first ? p.result.share_B + q.result.share_B : p.result.share_A + q.result.share_A;
+    const double m = 1 - phi + phi / sum;
+    p.factor *= m;
+    q.factor *= m;
   };
   // work_ is sorted by (definition, first, second): pairs sharing a first element are adjacent;
   // pairs sharing a second element are adjacent in by_second_.
@@ -279,7 +282,7 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
       continue;
     const std::array<int, 4> n = nodes_of(*definitions_[item.definition], item.pair);
     // Kernel order per surface X (0: A, 1: B): x_first, x_last, alpha_first, alpha_last.
-    const double w = item.weight;
+    const double w = item.factor;
     for (int X = 0; X < 2; ++X)
       for (int k = 0; k < 2; ++k) {
         const int node = n[2 * X + k];
@@ -310,7 +313,7 @@ std::vector<ContactPoint> SurfaceContactSet::points() const {
   for (const Work& w : work_)
     if (w.result.active)
       out.push_back({0.5 * (w.result.point_A + w.result.point_B), w.result.normal, w.result.gap,
-                     w.weight * w.result.force});
+                     w.factor * w.result.force});
   return out;
 }
 

@@ -42,14 +42,17 @@ private:
     int definition;
     broadphase::CandidatePair pair;
     contact::SurfaceContactResult result;
-    double weight = 1.0; ///< share of the contact this pair holds (share_merging_contacts)
+    /// Factor on the pair's force where it and a neighbour's pair find two close points in a
+    /// valley (share_split_contacts); 1 elsewhere.
+    double factor = 1.0;
   };
   using Key = std::array<int, 3>; ///< definition, first, second segment id
 
   /// End nodes of a pair's two elements: A first, A last, B first, B last.
   std::array<int, 4> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
-  /// Shares one contact between the two pairs that find it where two overlaps come together.
-  void share_merging_contacts();
+  /// Shares one contact between two pairs whose points lie close together on either side of a
+  /// node (a valley between two elements' cylinders).
+  void share_split_contacts();
   /// The cylinder of segment s of definition d at the state's configuration.
   contact::SuperEllipticalCylinder cylinder(const Definition& d, int s, const State& state) const;
 

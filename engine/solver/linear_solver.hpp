@@ -18,8 +18,9 @@ class LinearSolverError : public std::runtime_error {
 };
 
 enum class LinearSolverKind {
-  /// LDLTSymmetric unless the model has applied moments (their tangent is far from symmetric),
-  /// then LU: see docs/performance.md for the figures behind the choice.
+  /// LDLTSymmetric unless the model has applied moments or surface contact (their tangents
+  /// are far from symmetric), then LU: see docs/performance.md for the figures behind the
+  /// choice.
   Auto,
   LU,            ///< LU of the full (non-symmetric) tangent, UMFPACK (SuiteSparse)
   LDLTSymmetric, ///< LDL^T of the symmetric part (A + A^T) / 2, Eigen SimplicialLDLT + METIS

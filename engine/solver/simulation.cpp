@@ -67,7 +67,10 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   if (kind == LinearSolverKind::Auto) {
     const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
                                      [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
-    kind = moments ? LinearSolverKind::LU : LinearSolverKind::LDLTSymmetric;
+    // Surface contact near a node between elements carries a share of the force whose
+    // derivative makes the tangent non-symmetric (contact::SurfaceContactOptions::end_window).
+    kind = moments || !model.surface_contacts.empty() ? LinearSolverKind::LU
+                                                      : LinearSolverKind::LDLTSymmetric;
   }
   solver_ = make_linear_solver(kind);
   contact_ = ContactStage::of(model);
