@@ -106,7 +106,7 @@ TEST(ContactVerification, CrossingBeamsClampedMatchTheClosedForm) {
 /// flat sides facing) and the surface-to-surface contact. Bending under the vertical load is about
 /// section axis 1, EI1 = E pi a b^3 / 4.
 Crossing elliptical_crossing_beams(double eps, int n_el, double a, double b) {
-  const double E = 1e9, L = 1.0, P = 1.0;
+  const double E = 1e9;
   const double A = std::numbers::pi * a * b;
   Section s = test::stiffness_section(E * A, 1e3 * E * A, 0, 1e3 * E * A * a * a);
   s.EI1 = E * std::numbers::pi * a * b * b * b / 4;
