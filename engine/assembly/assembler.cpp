@@ -1,5 +1,9 @@
 #include "engine/assembly/assembler.hpp"
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <stdexcept>
+
 #include "engine/model/model.hpp"
 
 #include <algorithm>
@@ -73,17 +77,17 @@ Assembler::Assembler(const Model& model, const std::vector<char>& constrained)
 void Assembler::build_pattern() {
   ++pattern_version_;
   // Pattern: every element's 18 x 18 block, every node's 6 x 6 block and every contact
-  // coupling's 6 nodes, free equations only.
+  // coupling's 6 nodes (translations, or all six DOFs), free equations only.
   std::vector<std::pair<int, int>> entries; // (col, row)
   entries.reserve(connectivity_.size() * 324 + static_cast<std::size_t>(n_nodes_) * 36);
-  auto add_group = [&](const int* nodes, int count) {
+  auto add_group = [&](const int* nodes, int count, int dofs) {
     for (int a = 0; a < count; ++a)
-      for (int i = 0; i < 6; ++i) {
+      for (int i = 0; i < dofs; ++i) {
         const int col = equation_[6 * nodes[a] + i];
         if (col < 0)
           continue;
         for (int b = 0; b < count; ++b)
-          for (int j = 0; j < 6; ++j) {
+          for (int j = 0; j < dofs; ++j) {
             const int row = equation_[6 * nodes[b] + j];
             if (row >= 0)
               entries.emplace_back(col, row);
@@ -91,11 +95,11 @@ void Assembler::build_pattern() {
       }
   };
   for (const auto& c : connectivity_)
-    add_group(c.data(), 3);
+    add_group(c.data(), 3, 6);
   for (int n = 0; n < n_nodes_; ++n)
-    add_group(&n, 1);
+    add_group(&n, 1, 6);
   for (const auto& c : couplings_)
-    add_group(c.data(), 6);
+    add_group(c.nodes.data(), 6, c.rotations ? 6 : 3);
   std::sort(entries.begin(), entries.end());
   entries.erase(std::unique(entries.begin(), entries.end()), entries.end());
 
@@ -194,19 +198,20 @@ void Assembler::add_node_block(int node, int row_offset, int col_offset,
     }
 }
 
-bool Assembler::ensure_couplings(const std::vector<std::array<int, 6>>& groups) {
-  auto present = [&](const std::array<int, 6>& g) {
+bool Assembler::ensure_couplings(const std::vector<ContactCoupling>& groups) {
+  auto present = [&](const ContactCoupling& g) {
+    const int dofs = g.rotations ? 6 : 3;
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b)
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) {
-            const int r = equation_[6 * g[a] + i], c = equation_[6 * g[b] + j];
+        for (int i = 0; i < dofs; ++i)
+          for (int j = 0; j < dofs; ++j) {
+            const int r = equation_[6 * g.nodes[a] + i], c = equation_[6 * g.nodes[b] + j];
             if (r >= 0 && c >= 0 && slot_of(matrix_, r, c) < 0)
               return false;
           }
     return true;
   };
-  std::vector<std::array<int, 6>> missing;
+  std::vector<ContactCoupling> missing;
   for (const auto& g : groups)
     if (!present(g))
       missing.push_back(g);
@@ -233,7 +238,11 @@ void Assembler::add_translation_block(const std::array<int, 6>& nodes,
           if (col < 0)
             continue;
           const int s = slot_of(matrix_, row, col);
-          assert(s >= 0 && "contact coupling missing from the pattern");
+          if (s < 0)
+            throw std::logic_error(fmt::format(
+                "contact pair of nodes {} assembled without its coupling in the matrix pattern "
+                "(ensure_couplings was not called with it)",
+                fmt::join(nodes, ", ")));
           values[s] += block(3 * a + i, 3 * b + j);
         }
     }
@@ -258,7 +267,11 @@ void Assembler::add_surface_pair_block(const std::array<int, 4>& nodes,
       if (row < 0)
         continue;
       const int s = slot_of(matrix_, row, col);
-      assert(s >= 0 && "contact coupling missing from the pattern");
+      if (s < 0)
+        throw std::logic_error(fmt::format(
+            "surface contact pair of nodes {} assembled without its coupling in the matrix "
+            "pattern (ensure_couplings was not called with it, with rotations)",
+            fmt::join(nodes, ", ")));
       values[s] += scale * block(i, j);
     }
   }

@@ -23,6 +23,17 @@ struct StiffnessDamping {
   const Eigen::VectorXd* velocity = nullptr; ///< 6 n_nodes: v (m/s) and spatial omega (rad/s)
 };
 
+/// The nodes a contact pair couples in the tangent (unused slots repeat a node) and whether its
+/// tangent has rotational terms: spline pairs act on the translations of their 6 control points
+/// only, surface pairs on the translations and rotations of their 4 end nodes. Coupling only what
+/// a pair uses keeps the matrix, and the factorisation's fill, at a quarter of the all-DOF
+/// coupling for spline pairs.
+struct ContactCoupling {
+  std::array<int, 6> nodes{};
+  bool rotations = false;
+  auto operator<=>(const ContactCoupling&) const = default;
+};
+
 class Assembler {
 public:
   /// constrained: per global DOF (6 n_nodes), true when its increment is prescribed.
@@ -52,22 +63,24 @@ public:
   /// Current nodal values of element e.
   BeamNodalValues nodal_values(const State& state, int e) const;
 
-  /// Makes sure the pattern holds the translational blocks coupling the nodes of each group
-  /// (contact pairs: 6 control points). The pattern only grows, so it settles after the first
-  /// contacts; returns true when it changed (the solver must analyse it again).
-  bool ensure_couplings(const std::vector<std::array<int, 6>>& groups);
+  /// Makes sure the pattern holds the blocks coupling the nodes of each group (translations, and
+  /// rotations where the group asks for them). The pattern only grows, so it settles after the
+  /// first contacts; returns true when it changed (the solver must analyse it again).
+  bool ensure_couplings(const std::vector<ContactCoupling>& groups);
   /// Counts pattern rebuilds; a solver analyses again when it changes.
   int pattern_version() const { return pattern_version_; }
 
   /// Adds a contact pair's 18 x 18 tangent over the translations of its 6 nodes. The pattern must
-  /// hold the coupling (ensure_couplings).
+  /// hold the coupling (ensure_couplings); throws std::logic_error naming the nodes if it does
+  /// not.
   void add_translation_block(const std::array<int, 6>& nodes,
                              const Eigen::Matrix<double, 18, 18>& block);
 
   /// Adds a surface contact pair's 24 x 24 tangent over the translations and rotations of its
   /// four end nodes, nodes = (A first, A last, B first, B last), in the kernel's order per surface:
   /// x_first, x_last, alpha_first, alpha_last (contact/surface_contact.hpp). The pattern must hold
-  /// the coupling (ensure_couplings). The block is multiplied by scale.
+  /// the coupling with rotations (ensure_couplings); throws std::logic_error naming the nodes if
+  /// it does not. The block is multiplied by scale.
   void add_surface_pair_block(const std::array<int, 4>& nodes,
                               const Eigen::Matrix<double, 24, 24>& block, double scale = 1.0);
 
@@ -76,7 +89,7 @@ private:
 
   int n_nodes_ = 0;
   int pattern_version_ = 0;
-  std::vector<std::array<int, 6>> couplings_; ///< contact couplings in the pattern, sorted
+  std::vector<ContactCoupling> couplings_; ///< contact couplings in the pattern, sorted
   int n_equations_ = 0;
   std::vector<int> equation_;
   std::vector<std::array<int, 3>> connectivity_;

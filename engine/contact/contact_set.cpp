@@ -53,8 +53,8 @@ int ContactStage::candidates_version() const {
   return version;
 }
 
-std::vector<std::array<int, 6>> ContactStage::couplings() const {
-  std::vector<std::array<int, 6>> out;
+std::vector<ContactCoupling> ContactStage::couplings() const {
+  std::vector<ContactCoupling> out;
   for (const auto& set : sets_) {
     const auto c = set->couplings();
     out.insert(out.end(), c.begin(), c.end());

@@ -5,6 +5,7 @@
 // do not depend on the thread count. ContactSet is one formulation's stage (spline_contact_set.hpp,
 // surface_contact_set.hpp); ContactStage runs all of a model's, in a fixed order.
 
+#include "engine/assembly/assembler.hpp"
 #include "engine/model/model.hpp"
 #include "engine/state/state.hpp"
 
@@ -54,9 +55,9 @@ public:
   virtual std::string project(const State& state, bool want_tangent) = 0;
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
-  /// Node groups of all current candidate pairs, for the sparsity pattern (all six DOFs of
-  /// every node of a group are coupled; unused slots repeat a node).
-  virtual std::vector<std::array<int, 6>> couplings() const = 0;
+  /// Node groups of all current candidate pairs, for the sparsity pattern (unused slots repeat a
+  /// node; translations only, or all six DOFs, as the set's pair tangents need).
+  virtual std::vector<ContactCoupling> couplings() const = 0;
   /// Adds the active pairs' residuals and, if want_tangent, tangents, in sorted pair order.
   virtual void assemble(Eigen::VectorXd& residual, Assembler& assembler,
                         bool want_tangent) const = 0;
@@ -79,7 +80,7 @@ public:
   /// Broad and narrow phase; returns as project().
   std::string evaluate(const State& state, bool want_tangent);
   int candidates_version() const;
-  std::vector<std::array<int, 6>> couplings() const;
+  std::vector<ContactCoupling> couplings() const;
   void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
   void commit();
 

@@ -156,11 +156,11 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
   return {};
 }
 
-std::vector<std::array<int, 6>> SplineContactSet::couplings() const {
-  std::vector<std::array<int, 6>> out;
+std::vector<ContactCoupling> SplineContactSet::couplings() const {
+  std::vector<ContactCoupling> out;
   out.reserve(work_.size());
   for (const Work& item : work_)
-    out.push_back(nodes_of(*definitions_[item.definition], item.pair));
+    out.push_back({nodes_of(*definitions_[item.definition], item.pair), false});
   return out;
 }
 

@@ -32,7 +32,7 @@ public:
   std::string project(const State& state, bool want_tangent) override;
   int candidates_version() const override { return candidates_version_; }
   /// The 6 control points of each candidate pair.
-  std::vector<std::array<int, 6>> couplings() const override;
+  std::vector<ContactCoupling> couplings() const override;
   /// Translations only: the splines' control points carry no rotations.
   void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
   void commit() override;

@@ -265,12 +265,12 @@ void SurfaceContactSet::share_split_contacts() {
     share(work_[by_second_[k]], work_[by_second_[k + 1]], false);
 }
 
-std::vector<std::array<int, 6>> SurfaceContactSet::couplings() const {
-  std::vector<std::array<int, 6>> out;
+std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
+  std::vector<ContactCoupling> out;
   out.reserve(work_.size());
   for (const Work& item : work_) {
     const std::array<int, 4> n = nodes_of(*definitions_[item.definition], item.pair);
-    out.push_back({n[0], n[1], n[2], n[3], n[3], n[3]});
+    out.push_back({{n[0], n[1], n[2], n[3], n[3], n[3]}, true});
   }
   return out;
 }

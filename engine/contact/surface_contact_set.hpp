@@ -29,7 +29,7 @@ public:
   std::string project(const State& state, bool want_tangent) override;
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
-  std::vector<std::array<int, 6>> couplings() const override;
+  std::vector<ContactCoupling> couplings() const override;
   void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
   void commit() override;
   /// Gaps are signed distances between the surfaces.

@@ -314,9 +314,12 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
 
     h5::Handle pattern = h5::create_group(root, "pattern");
     std::vector<int> groups;
-    for (const auto& group : c.pattern_groups)
-      groups.insert(groups.end(), group.begin(), group.end());
-    write_table(pattern.id(), "groups", groups, 6);
+    // Per coupling: its 6 nodes, then 1 if it couples rotations, else 0.
+    for (const auto& group : c.pattern_groups) {
+      groups.insert(groups.end(), group.nodes.begin(), group.nodes.end());
+      groups.push_back(group.rotations ? 1 : 0);
+    }
+    write_table(pattern.id(), "groups", groups, 7);
     h5::write_dataset(pattern.id(), "calls", std::span<const int>(c.pattern_calls),
                       std::array<hsize_t, 1>{c.pattern_calls.size()});
     pattern.close();
@@ -405,10 +408,11 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
   s.alpha = Eigen::Matrix3Xd::Zero(3, n);
 
   h5::Handle pattern = h5::open_group(root, "pattern");
-  const std::vector<int> groups = read_int_table(pattern.id(), "groups", 6);
-  for (std::size_t i = 0; i < groups.size(); i += 6)
+  const std::vector<int> groups = read_int_table(pattern.id(), "groups", 7);
+  for (std::size_t i = 0; i < groups.size(); i += 7)
     c.pattern_groups.push_back(
-        {groups[i], groups[i + 1], groups[i + 2], groups[i + 3], groups[i + 4], groups[i + 5]});
+        {{groups[i], groups[i + 1], groups[i + 2], groups[i + 3], groups[i + 4], groups[i + 5]},
+         groups[i + 6] != 0});
   c.pattern_calls = h5::read_ints(pattern.id(), "calls");
 
   if (h5::exists(root, "contact"))

@@ -103,10 +103,10 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   for (int end : from.pattern_calls) {
     if (end < begin)
       throw std::invalid_argument("checkpoint: pattern growth calls are not in order");
-    const std::vector<std::array<int, 6>> groups(from.pattern_groups.begin() + begin,
-                                                 from.pattern_groups.begin() + end);
+    const std::vector<ContactCoupling> groups(from.pattern_groups.begin() + begin,
+                                              from.pattern_groups.begin() + end);
     for (const auto& g : groups)
-      for (int node : g)
+      for (int node : g.nodes)
         if (node < 0 || node >= n)
           throw std::invalid_argument(
               fmt::format("checkpoint: a contact coupling names node index {} of {}", node, n));
@@ -117,7 +117,7 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   coupled_candidates_ = from.coupled_candidates;
 }
 
-void Simulation::log_pattern_growth(const std::vector<std::array<int, 6>>& groups) {
+void Simulation::log_pattern_growth(const std::vector<ContactCoupling>& groups) {
   // A group met in an earlier growing call is in the pattern since: leaving it out of later calls
   // changes nothing they add.
   for (const auto& g : groups)

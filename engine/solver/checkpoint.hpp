@@ -52,7 +52,7 @@ struct SimulationCheckpoint {
   /// Contact couplings of each call that grew the tangent's pattern, in order (each group once,
   /// at its first call): replayed through Assembler::ensure_couplings they rebuild the same
   /// pattern, hence the same ordering and factorisation. pattern_calls[k] is the end of call k.
-  std::vector<std::array<int, 6>> pattern_groups;
+  std::vector<ContactCoupling> pattern_groups;
   std::vector<int> pattern_calls;
   int coupled_candidates = -1; ///< contact candidate version the pattern holds
 };

@@ -196,7 +196,7 @@ struct Simulation::IterationGraph {
                 const auto t1 = std::chrono::steady_clock::now();
                 s.stage_times_.broad_phase += std::chrono::duration<double>(t1 - t0).count();
                 if (s.contact_ && s.coupled_candidates_ != s.contact_->candidates_version()) {
-                  const std::vector<std::array<int, 6>> groups = s.contact_->couplings();
+                  const std::vector<ContactCoupling> groups = s.contact_->couplings();
                   if (s.assembler_->ensure_couplings(groups))
                     s.log_pattern_growth(groups);
                   s.coupled_candidates_ = s.contact_->candidates_version();

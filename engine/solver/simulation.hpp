@@ -176,7 +176,7 @@ private:
   /// The explicit integrator's state while an explicit step runs (central_difference.cpp).
   ExplicitProgress explicit_progress() const;
   /// Records the couplings of a call that grew the pattern, for a restart (checkpoint.cpp).
-  void log_pattern_growth(const std::vector<std::array<int, 6>>& groups);
+  void log_pattern_growth(const std::vector<ContactCoupling>& groups);
   void apply_prescribed(double t_new);
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
@@ -224,9 +224,9 @@ private:
   double next_dt_ = 0; ///< s, size of the next implicit increment; 0: the step's initial size
   const CentralDifference* explicit_ = nullptr;       ///< the explicit step running, if any
   std::unique_ptr<ExplicitProgress> resume_explicit_; ///< explicit step to continue, if any
-  std::vector<std::array<int, 6>> pattern_groups_;    ///< see SimulationCheckpoint
+  std::vector<ContactCoupling> pattern_groups_;       ///< see SimulationCheckpoint
   std::vector<int> pattern_calls_;
-  std::set<std::array<int, 6>> pattern_logged_;
+  std::set<ContactCoupling> pattern_logged_;
 };
 
 } // namespace yarnsim

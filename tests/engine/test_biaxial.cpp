@@ -87,12 +87,19 @@ TEST(Biaxial, BalancedFabricCurvesCoincide) {
   ASSERT_NEAR(k1.strain_warp.back(), 0.015, 1e-9);
   ASSERT_NEAR(k2.strain_warp.back(), 0.015, 1e-9);
   ASSERT_NEAR(k05.strain_weft.back(), 0.015, 1e-9);
-  // Past the toe (0.3 % strain) the curves agree within 1 % at equal strain.
+  // Past the toe the curves agree at equal strain: warp and weft at k = 1 to round-off (one
+  // run), k = 2 warp and k = 0.5 weft within 0.2 %. The mirrored runs are mirror images up to
+  // round-off, which the fill-reducing ordering (not mirror-symmetric) changes: their adaptive
+  // steps then differ (52 and 53 increments), and at the toe's end, 0.3 %, where the slope grows
+  // from nearly zero to its final value within one increment, linear interpolation between
+  // different increments differs by 2 N of 70 (2.8 %). So the comparison starts at 0.35 %.
   double worst_k1 = 0, worst_k2 = 0;
   for (double s = 0.003; s <= 0.015 + 1e-12; s += 0.0005) {
     const double fw = at(k1.strain_warp, k1.force_warp, s),
                  ff = at(k1.strain_weft, k1.force_weft, s);
     worst_k1 = std::max(worst_k1, std::abs(fw - ff) / std::abs(fw));
+  }
+  for (double s = 0.0035; s <= 0.015 + 1e-12; s += 0.0005) {
     const double a = at(k2.strain_warp, k2.force_warp, s);
     const double b = at(k05.strain_weft, k05.force_weft, s);
     worst_k2 = std::max(worst_k2, std::abs(a - b) / std::abs(a));
@@ -110,8 +117,8 @@ TEST(Biaxial, BalancedFabricCurvesCoincide) {
               final_slope(k2.strain_weft, k2.force_weft) / (n * EA),
               final_slope(k05.strain_warp, k05.force_warp) / (n * EA),
               final_slope(k05.strain_weft, k05.force_weft) / (n * EA));
-  EXPECT_LT(worst_k1, 0.01);
-  EXPECT_LT(worst_k2, 0.01);
+  EXPECT_LT(worst_k1, 1e-9);
+  EXPECT_LT(worst_k2, 0.002);
   // The stiff part cannot be stiffer than the straight yarns themselves.
   EXPECT_LT(final_slope(k1.strain_warp, k1.force_warp), n * EA);
   EXPECT_GT(final_slope(k1.strain_warp, k1.force_warp), 0.5 * n * EA);

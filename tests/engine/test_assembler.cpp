@@ -1,0 +1,77 @@
+// The tangent's sparsity pattern and contact couplings (engine/assembly/assembler.*): a spline
+// pair couples translations only, a surface pair translations and rotations, and a pair
+// assembled without its coupling is refused instead of writing outside the matrix.
+#include "beam_models.hpp"
+#include "engine/assembly/assembler.hpp"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+namespace yarnsim {
+namespace {
+
+/// Two parallel beams of 3 elements (7 nodes each, nodes 0-6 and 7-13), nothing constrained.
+Model two_beams() {
+  const Section s = test::stiffness_section(1e3, 1e3, 1, 1);
+  Model m = test::straight_beam({0, 0, 0}, {1, 0, 0}, 3, s);
+  const Model b = test::straight_beam({0, 1, 0}, {1, 1, 0}, 3, s);
+  for (const Eigen::Vector3d& x : b.nodes)
+    m.nodes.push_back(x);
+  for (BeamElement e : b.elements) {
+    for (int& n : e.nodes)
+      n += 7;
+    m.elements.push_back(e);
+  }
+  return m;
+}
+
+/// Whether the pattern holds entry (DOF i of node a, DOF j of node b); no DOF is constrained, so
+/// equation = 6 node + DOF.
+bool holds(const Assembler& assembler, int a, int i, int b, int j) {
+  const auto& m = assembler.matrix();
+  for (SparseMatrix::InnerIterator it(m, 6 * b + j); it; ++it)
+    if (it.row() == 6 * a + i)
+      return true;
+  return false;
+}
+
+TEST(Assembler, SplineCouplingsHoldTranslationsOnlyAndSurfaceCouplingsRotationsToo) {
+  const Model m = two_beams();
+  Assembler assembler(m, std::vector<char>(6 * m.nodes.size(), 0));
+  EXPECT_FALSE(holds(assembler, 0, 0, 7, 0)); // the beams are not coupled by their elements
+  const int version = assembler.pattern_version();
+
+  // A spline pair: control points 0, 1, 2 of one beam and 7, 8, 9 of the other.
+  EXPECT_TRUE(assembler.ensure_couplings({ContactCoupling{{0, 1, 2, 7, 8, 9}, false}}));
+  EXPECT_GT(assembler.pattern_version(), version);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      EXPECT_TRUE(holds(assembler, 0, i, 9, j));
+  EXPECT_FALSE(holds(assembler, 0, 3, 9, 0)); // rotation-translation
+  EXPECT_FALSE(holds(assembler, 0, 3, 9, 4)); // rotation-rotation
+  EXPECT_FALSE(assembler.ensure_couplings({ContactCoupling{{0, 1, 2, 7, 8, 9}, false}}));
+
+  // A spline pair's tangent goes in; a surface pair's between the same nodes needs rotations.
+  Eigen::Matrix<double, 18, 18> spline = Eigen::Matrix<double, 18, 18>::Ones();
+  EXPECT_NO_THROW(assembler.add_translation_block({0, 1, 2, 7, 8, 9}, spline));
+  Eigen::Matrix<double, 24, 24> surface = Eigen::Matrix<double, 24, 24>::Ones();
+  EXPECT_THROW(assembler.add_surface_pair_block({0, 2, 7, 9}, surface), std::logic_error);
+
+  // The translations present do not satisfy a surface coupling: it grows the pattern.
+  EXPECT_TRUE(assembler.ensure_couplings({ContactCoupling{{0, 2, 7, 9, 9, 9}, true}}));
+  EXPECT_TRUE(holds(assembler, 0, 3, 9, 4));
+  EXPECT_TRUE(holds(assembler, 9, 5, 0, 1));
+  EXPECT_NO_THROW(assembler.add_surface_pair_block({0, 2, 7, 9}, surface));
+
+  // A pair never coupled is refused, with its nodes named.
+  try {
+    assembler.add_translation_block({4, 5, 6, 11, 12, 13}, spline);
+    FAIL() << "no exception";
+  } catch (const std::logic_error& e) {
+    EXPECT_NE(std::string(e.what()).find("4, 5, 6, 11, 12, 13"), std::string::npos) << e.what();
+  }
+}
+
+} // namespace
+} // namespace yarnsim
