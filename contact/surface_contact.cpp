@@ -1155,6 +1155,16 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
   // On a degenerate path Phi*(d) = Phi~(c_F(d), d) with Phi~ the reduced function:
   // Phi~_dF = D_F - D_f^T H_ff^-1 H_fF, Phi~_FF = H_FF - H_Ff H_ff^-1 H_fF, Phi~_F = r_F, so
   // E = X_F grad c_F^T + grad c_F X_F^T + S_FF' grad c_F grad c_F'^T + r_F hess c_F.
+  // H_fk: column k of H in the free coordinates' rows (zero in the fixed ones).
+  const auto free_column = [&](int k) {
+    Vec4 v = h.col(k);
+    for (int l = 0; l < 4; ++l) {
+      if (mode.fixed[l]) {
+        v(l) = 0.0;
+      }
+    }
+    return v;
+  };
   Mat24 extra;
   if (degenerate) {
     extra.setZero();
@@ -1162,12 +1172,7 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
       if (!mode.fixed[i]) {
         continue;
       }
-      Vec4 hi = h.col(i);
-      for (int k = 0; k < 4; ++k) {
-        if (mode.fixed[k]) {
-          hi(k) = 0.0;
-        }
-      }
+      const Vec4 hi = free_column(i);
       const Vec4 zi = h_inv * hi;
       const Vec24 xi = d.row(i).transpose() - d_free.transpose() * zi;
       extra.noalias() += xi * fd.grad[i].transpose();
@@ -1176,13 +1181,7 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
         if (!mode.fixed[k]) {
           continue;
         }
-        Vec4 hk = h.col(k);
-        for (int l = 0; l < 4; ++l) {
-          if (mode.fixed[l]) {
-            hk(l) = 0.0;
-          }
-        }
-        const double sik = h(i, k) - hi.dot(h_inv * hk);
+        const double sik = h(i, k) - hi.dot(h_inv * free_column(k));
         extra.noalias() += sik * fd.grad[i] * fd.grad[k].transpose();
       }
       extra += r(i) * fd.hess[i];
@@ -1229,13 +1228,7 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
         if (!mode.fixed[k]) {
           continue;
         }
-        Vec4 hk = h.col(k);
-        for (int l = 0; l < 4; ++l) {
-          if (mode.fixed[l]) {
-            hk(l) = 0.0;
-          }
-        }
-        grad_zeta -= (h_inv.row(i).dot(hk)) * fd.grad[k];
+        grad_zeta -= h_inv.row(i).dot(free_column(k)) * fd.grad[k];
       }
       grad_w += dw[x] * grad_zeta;
     }
