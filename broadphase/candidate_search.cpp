@@ -299,6 +299,7 @@ struct CandidateSearch::Impl {
 
   void search(std::span<const Eigen::AlignedBox3d> boxes, std::span<const double> radius) {
     const auto start = std::chrono::steady_clock::now();
+    searched.assign(boxes.begin(), boxes.end());
     const int n = filter.size();
     const double margin = options.margin;
     // Refit every object to its inflated box. The box keeps the identity rotation, so its world
@@ -356,7 +357,8 @@ struct CandidateSearch::Impl {
   std::vector<std::pair<int, int>> tree_pairs; ///< (a, b), a <= b, whose trees are collided
   /// Per segment, its box inflated by the radius only at the last search, metres.
   std::vector<Eigen::AlignedBox3d> contact_boxes;
-  std::vector<CandidatePair> pairs; ///< the candidates
+  std::vector<CandidatePair> pairs;          ///< the candidates
+  std::vector<Eigen::AlignedBox3d> searched; ///< tight boxes of the last search, metres
   std::vector<CandidatePair> scratch;
   std::vector<int> offsets;
   CandidateSearchStatistics stats;
@@ -393,6 +395,10 @@ bool CandidateSearch::update(std::span<const Eigen::AlignedBox3d> tight_boxes,
 
 const std::vector<CandidatePair>& CandidateSearch::candidates() const {
   return impl_->pairs;
+}
+
+const std::vector<Eigen::AlignedBox3d>& CandidateSearch::searched_boxes() const {
+  return impl_->searched;
 }
 
 const CandidateSearchStatistics& CandidateSearch::statistics() const {

@@ -110,6 +110,11 @@ public:
   /// independent of thread count and of the tree's traversal order. Empty before update().
   const std::vector<CandidatePair>& candidates() const;
 
+  /// The tight boxes of the last search, metres (empty before it): searched again (update with
+  /// force), they give the same candidates and the same reference for the motion test, as a
+  /// restart needs (engine/solver/checkpoint.hpp).
+  const std::vector<Eigen::AlignedBox3d>& searched_boxes() const;
+
   const CandidateSearchStatistics& statistics() const;
   int num_segments() const;
   const CandidateSearchOptions& options() const;

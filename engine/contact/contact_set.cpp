@@ -117,4 +117,14 @@ const SplineContactSet* ContactStage::spline() const {
   return const_cast<ContactStage*>(this)->spline();
 }
 
+SurfaceContactSet* ContactStage::surface() {
+  return !names_.empty() && names_.back() == "surface"
+             ? static_cast<SurfaceContactSet*>(sets_.back().get())
+             : nullptr;
+}
+
+const SurfaceContactSet* ContactStage::surface() const {
+  return const_cast<ContactStage*>(this)->surface();
+}
+
 } // namespace yarnsim

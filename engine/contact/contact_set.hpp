@@ -19,6 +19,7 @@ namespace yarnsim {
 
 class Assembler;
 class SplineContactSet;
+class SurfaceContactSet;
 
 /// An active contact point, for output.
 struct ContactPoint {
@@ -100,6 +101,9 @@ public:
   /// The spline contact set, or null (checkpoints save and restore it).
   SplineContactSet* spline();
   const SplineContactSet* spline() const;
+  /// The surface contact set, or null (checkpoints save and restore it).
+  SurfaceContactSet* surface();
+  const SurfaceContactSet* surface() const;
 
 private:
   std::vector<std::unique_ptr<ContactSet>> sets_;

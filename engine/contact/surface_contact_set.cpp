@@ -317,4 +317,110 @@ std::vector<ContactPoint> SurfaceContactSet::points() const {
   return out;
 }
 
+SurfaceContactSet::Snapshot SurfaceContactSet::snapshot() const {
+  Snapshot out;
+  for (const auto& d : definitions_)
+    out.search_boxes.push_back(d->search->searched_boxes());
+  out.committed.reserve(committed_.size());
+  for (const auto& [key, c] : committed_)
+    out.committed.push_back({key, c.zeta_A, c.theta_A, c.zeta_B, c.theta_B, c.active});
+  out.pairs.reserve(work_.size());
+  for (const Work& w : work_) {
+    const contact::SurfaceContactResult& r = w.result;
+    out.pairs.push_back({Key{w.definition, w.pair.first, w.pair.second},
+                         r.status,
+                         r.degeneration,
+                         r.active,
+                         r.iterations,
+                         r.zeta_A,
+                         r.theta_A,
+                         r.zeta_B,
+                         r.theta_B,
+                         r.gap,
+                         r.penetration,
+                         r.penetration_rate,
+                         r.force,
+                         r.potential,
+                         r.share,
+                         r.share_A,
+                         r.share_B,
+                         w.factor,
+                         r.point_A,
+                         r.point_B,
+                         r.normal});
+  }
+  out.candidates_version = candidates_version_;
+  out.summary = summary_;
+  return out;
+}
+
+void SurfaceContactSet::restore(const Snapshot& snapshot) {
+  if (snapshot.search_boxes.size() != definitions_.size())
+    throw std::invalid_argument(
+        fmt::format("surface contact restart: {} contact definitions saved, the model has {}",
+                    snapshot.search_boxes.size(), definitions_.size()));
+  // Searching the saved boxes again makes them the reference of the motion test and gives the
+  // candidates of the saved search (sorted, independent of the tree).
+  std::vector<Work> work;
+  for (std::size_t k = 0; k < definitions_.size(); ++k) {
+    Definition& d = *definitions_[k];
+    if (snapshot.search_boxes[k].size() != d.boxes.size())
+      throw std::invalid_argument(fmt::format(
+          "surface contact restart: definition '{}' has {} segments, the snapshot {} boxes",
+          model_.surface_contacts[k].name, d.boxes.size(), snapshot.search_boxes[k].size()));
+    d.search->update(snapshot.search_boxes[k], d.reach, true);
+    for (const broadphase::CandidatePair& p : d.search->candidates())
+      work.push_back({static_cast<int>(k), p, {}});
+  }
+  if (work.size() != snapshot.pairs.size())
+    throw std::invalid_argument(fmt::format(
+        "surface contact restart: the saved boxes give {} candidate pairs, the snapshot has {}",
+        work.size(), snapshot.pairs.size()));
+  for (std::size_t w = 0; w < work.size(); ++w) {
+    const Snapshot::Pair& p = snapshot.pairs[w];
+    if (p.key != Key{work[w].definition, work[w].pair.first, work[w].pair.second})
+      throw std::invalid_argument(
+          fmt::format("surface contact restart: candidate {} of the saved search differs from the "
+                      "snapshot's",
+                      w));
+    contact::SurfaceContactResult& r = work[w].result;
+    r.status = p.status;
+    r.degeneration = p.degeneration;
+    r.iterations = p.iterations;
+    r.zeta_A = p.zeta_A;
+    r.theta_A = p.theta_A;
+    r.zeta_B = p.zeta_B;
+    r.theta_B = p.theta_B;
+    r.point_A = p.point_A;
+    r.point_B = p.point_B;
+    r.normal = p.normal;
+    r.gap = p.gap;
+    r.penetration = p.penetration;
+    r.penetration_rate = p.penetration_rate;
+    r.force = p.force;
+    r.potential = p.potential;
+    r.active = p.active;
+    r.share = p.share;
+    r.share_A = p.share_A;
+    r.share_B = p.share_B;
+    work[w].factor = p.factor;
+  }
+  work_ = std::move(work);
+  // The by-second index as update_candidates builds it.
+  by_second_.resize(work_.size());
+  for (std::size_t i = 0; i < by_second_.size(); ++i)
+    by_second_[i] = i;
+  std::sort(by_second_.begin(), by_second_.end(), [&](std::size_t i, std::size_t j) {
+    const Work& p = work_[i];
+    const Work& q = work_[j];
+    return std::tie(p.definition, p.pair.second, p.pair.first) <
+           std::tie(q.definition, q.pair.second, q.pair.first);
+  });
+  committed_.clear();
+  for (const Snapshot::Warm& c : snapshot.committed)
+    committed_[c.key] = {c.zeta_A, c.theta_A, c.zeta_B, c.theta_B, c.active};
+  candidates_version_ = snapshot.candidates_version;
+  summary_ = snapshot.summary;
+}
+
 } // namespace yarnsim

@@ -36,6 +36,39 @@ public:
   const ContactSummary& summary() const override { return summary_; }
   std::vector<ContactPoint> points() const override;
 
+  /// What a restart needs to continue bit for bit (engine/solver/checkpoint.hpp), as
+  /// SplineContactSet::Snapshot: the boxes of each definition's last broad-phase search
+  /// (searching them again gives the same candidates and the same motion test), the committed
+  /// warm starts, the candidates with the outcome of the last evaluation and its figures.
+  /// Residuals and tangents are left out: every use computes them again.
+  struct Snapshot {
+    struct Warm {
+      std::array<int, 3> key; ///< definition, first, second segment id
+      double zeta_A, theta_A, zeta_B, theta_B;
+      bool active;
+    };
+    /// A candidate, the scalar part of its last SurfaceContactResult and its share factor.
+    struct Pair {
+      std::array<int, 3> key;
+      contact::ProjectionStatus status;
+      contact::SurfaceDegeneration degeneration;
+      bool active;
+      int iterations;
+      double zeta_A, theta_A, zeta_B, theta_B, gap, penetration, penetration_rate, force, potential,
+          share, share_A, share_B, factor;
+      Eigen::Vector3d point_A, point_B, normal;
+    };
+    std::vector<std::vector<Eigen::AlignedBox3d>> search_boxes; ///< per definition, per segment
+    std::vector<Warm> committed;                                ///< sorted by key
+    std::vector<Pair> pairs;                                    ///< the work list, in order
+    int candidates_version = 0;
+    ContactSummary summary; ///< of the last evaluation
+  };
+  Snapshot snapshot() const;
+  /// Puts a snapshot of a set of the same model back. Throws std::invalid_argument when it does
+  /// not fit the model or its boxes do not give its candidates.
+  void restore(const Snapshot& snapshot);
+
 private:
   struct Definition;
   struct Work {

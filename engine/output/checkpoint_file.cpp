@@ -15,6 +15,7 @@ namespace yarnsim::output {
 namespace {
 
 constexpr const char* kFormat = "yarnsim checkpoint 1";
+constexpr std::size_t kSurfacePairValues = 22; ///< columns of /surface_contact/pair_values
 
 /// FNV-1a, 64 bits, over bytes.
 struct Fnv1a {
@@ -61,19 +62,25 @@ void write_status(hid_t object, const std::string& prefix, const ExplicitStatus&
   h5::write_double_attribute(object, prefix + "increments", static_cast<double>(s.increments));
 }
 
-void write_contact(hid_t parent, const SplineContactSet::Snapshot& c) {
-  h5::Handle group = h5::create_group(parent, "contact");
-  const hid_t g = group.id();
-  h5::write_int_attribute(g, "definitions", static_cast<int>(c.search_boxes.size()));
-  h5::write_int_attribute(g, "candidates_version", c.candidates_version);
-  for (std::size_t k = 0; k < c.search_boxes.size(); ++k) {
+/// Attribute `definitions` and a table boxes_<k> (n_segments, 6) per definition: min then max
+/// corner of each segment's box at the definition's last search.
+void write_search_boxes(hid_t g, const std::vector<std::vector<Eigen::AlignedBox3d>>& search) {
+  h5::write_int_attribute(g, "definitions", static_cast<int>(search.size()));
+  for (std::size_t k = 0; k < search.size(); ++k) {
     std::vector<double> boxes;
-    boxes.reserve(6 * c.search_boxes[k].size());
-    for (const Eigen::AlignedBox3d& b : c.search_boxes[k])
+    boxes.reserve(6 * search[k].size());
+    for (const Eigen::AlignedBox3d& b : search[k])
       boxes.insert(boxes.end(),
                    {b.min().x(), b.min().y(), b.min().z(), b.max().x(), b.max().y(), b.max().z()});
     write_table(g, fmt::format("boxes_{}", k), boxes, 6);
   }
+}
+
+void write_contact(hid_t parent, const SplineContactSet::Snapshot& c) {
+  h5::Handle group = h5::create_group(parent, "contact");
+  const hid_t g = group.id();
+  h5::write_int_attribute(g, "candidates_version", c.candidates_version);
+  write_search_boxes(g, c.search_boxes);
   std::vector<int> keys;
   std::vector<double> values;
   for (const auto& w : c.committed) {
@@ -97,6 +104,45 @@ void write_contact(hid_t parent, const SplineContactSet::Snapshot& c) {
   write_table(g, "pair_keys", keys, 3);
   write_table(g, "pair_flags", flags, 4);
   write_table(g, "pair_values", values, 17);
+}
+
+void write_surface_contact(hid_t parent, const SurfaceContactSet::Snapshot& c) {
+  h5::Handle group = h5::create_group(parent, "surface_contact");
+  const hid_t g = group.id();
+  h5::write_int_attribute(g, "candidates_version", c.candidates_version);
+  write_search_boxes(g, c.search_boxes);
+  const ContactSummary& m = c.summary;
+  h5::write_int_attribute(g, "summary_candidates", m.candidates);
+  h5::write_int_attribute(g, "summary_active", m.active);
+  h5::write_double_attribute(g, "summary_max_penetration", m.max_penetration);
+  h5::write_double_attribute(g, "summary_max_force", m.max_force);
+  h5::write_double_attribute(g, "summary_potential", m.potential);
+  h5::write_double_attribute(g, "summary_total_force", m.total_force);
+  h5::write_double_attribute(g, "summary_min_gap", m.min_gap);
+  std::vector<int> keys;
+  std::vector<double> values;
+  for (const auto& w : c.committed) {
+    keys.insert(keys.end(), w.key.begin(), w.key.end());
+    values.insert(values.end(), {w.zeta_A, w.theta_A, w.zeta_B, w.theta_B, w.active ? 1.0 : 0.0});
+  }
+  write_table(g, "committed_keys", keys, 3);
+  write_table(g, "committed", values, 5);
+  keys.clear();
+  values.clear();
+  std::vector<int> flags;
+  for (const auto& p : c.pairs) {
+    keys.insert(keys.end(), p.key.begin(), p.key.end());
+    flags.insert(flags.end(), {static_cast<int>(p.status), static_cast<int>(p.degeneration),
+                               p.active ? 1 : 0, p.iterations});
+    values.insert(values.end(), {p.zeta_A, p.theta_A, p.zeta_B, p.theta_B, p.gap, p.penetration,
+                                 p.penetration_rate, p.force, p.potential, p.share, p.share_A,
+                                 p.share_B, p.factor});
+    for (const Eigen::Vector3d* v : {&p.point_A, &p.point_B, &p.normal})
+      values.insert(values.end(), {v->x(), v->y(), v->z()});
+  }
+  write_table(g, "pair_keys", keys, 3);
+  write_table(g, "pair_flags", flags, 4);
+  write_table(g, "pair_values", values, kSurfacePairValues);
 }
 
 void write_explicit(hid_t parent, const ExplicitProgress& p) {
@@ -169,11 +215,9 @@ ExplicitStatus read_status(hid_t object, const std::string& prefix) {
   return s;
 }
 
-SplineContactSet::Snapshot read_contact(hid_t parent) {
-  h5::Handle group = h5::open_group(parent, "contact");
-  const hid_t g = group.id();
-  SplineContactSet::Snapshot c;
-  c.candidates_version = h5::read_int_attribute(g, "candidates_version");
+/// As write_search_boxes wrote them.
+std::vector<std::vector<Eigen::AlignedBox3d>> read_search_boxes(hid_t g) {
+  std::vector<std::vector<Eigen::AlignedBox3d>> out;
   const int definitions = h5::read_int_attribute(g, "definitions");
   for (int k = 0; k < definitions; ++k) {
     const std::vector<double> v = read_table(g, fmt::format("boxes_{}", k), -1, 6);
@@ -181,8 +225,17 @@ SplineContactSet::Snapshot read_contact(hid_t parent) {
     for (std::size_t i = 0; i < v.size(); i += 6)
       boxes.emplace_back(Eigen::Vector3d(v[i], v[i + 1], v[i + 2]),
                          Eigen::Vector3d(v[i + 3], v[i + 4], v[i + 5]));
-    c.search_boxes.push_back(std::move(boxes));
+    out.push_back(std::move(boxes));
   }
+  return out;
+}
+
+SplineContactSet::Snapshot read_contact(hid_t parent) {
+  h5::Handle group = h5::open_group(parent, "contact");
+  const hid_t g = group.id();
+  SplineContactSet::Snapshot c;
+  c.candidates_version = h5::read_int_attribute(g, "candidates_version");
+  c.search_boxes = read_search_boxes(g);
   std::vector<int> keys = read_int_table(g, "committed_keys", 3);
   std::vector<double> values = read_table(g, "committed", static_cast<long>(keys.size() / 3), 3);
   for (std::size_t i = 0; i < keys.size() / 3; ++i)
@@ -217,6 +270,66 @@ SplineContactSet::Snapshot read_contact(hid_t parent) {
                        Eigen::Vector3d(v[8], v[9], v[10]),
                        Eigen::Vector3d(v[11], v[12], v[13]),
                        Eigen::Vector3d(v[14], v[15], v[16])});
+  }
+  return c;
+}
+
+SurfaceContactSet::Snapshot read_surface_contact(hid_t parent) {
+  h5::Handle group = h5::open_group(parent, "surface_contact");
+  const hid_t g = group.id();
+  SurfaceContactSet::Snapshot c;
+  c.candidates_version = h5::read_int_attribute(g, "candidates_version");
+  c.search_boxes = read_search_boxes(g);
+  ContactSummary& m = c.summary;
+  m.candidates = h5::read_int_attribute(g, "summary_candidates");
+  m.active = h5::read_int_attribute(g, "summary_active");
+  m.max_penetration = h5::read_double_attribute(g, "summary_max_penetration");
+  m.max_force = h5::read_double_attribute(g, "summary_max_force");
+  m.potential = h5::read_double_attribute(g, "summary_potential");
+  m.total_force = h5::read_double_attribute(g, "summary_total_force");
+  m.min_gap = h5::read_double_attribute(g, "summary_min_gap");
+  std::vector<int> keys = read_int_table(g, "committed_keys", 3);
+  std::vector<double> values = read_table(g, "committed", static_cast<long>(keys.size() / 3), 5);
+  for (std::size_t i = 0; i < keys.size() / 3; ++i) {
+    const double* v = &values[5 * i];
+    c.committed.push_back(
+        {{keys[3 * i], keys[3 * i + 1], keys[3 * i + 2]}, v[0], v[1], v[2], v[3], v[4] != 0.0});
+  }
+  keys = read_int_table(g, "pair_keys", 3);
+  const long n = static_cast<long>(keys.size() / 3);
+  const std::vector<int> flags = read_int_table(g, "pair_flags", 4);
+  values = read_table(g, "pair_values", n, kSurfacePairValues);
+  if (static_cast<long>(flags.size() / 4) != n)
+    throw RestartError("checkpoint: surface contact pair_flags and pair_keys differ in length");
+  for (long i = 0; i < n; ++i) {
+    const double* v = &values[kSurfacePairValues * i];
+    const int* f = &flags[4 * i];
+    if (f[0] < 0 || f[0] > static_cast<int>(contact::ProjectionStatus::Jumped))
+      throw RestartError(fmt::format("checkpoint: surface contact pair {} has status {}", i, f[0]));
+    if (f[1] < 0 || f[1] > static_cast<int>(contact::SurfaceDegeneration::RidgeOnBoth))
+      throw RestartError(
+          fmt::format("checkpoint: surface contact pair {} has degeneration {}", i, f[1]));
+    c.pairs.push_back({{keys[3 * i], keys[3 * i + 1], keys[3 * i + 2]},
+                       static_cast<contact::ProjectionStatus>(f[0]),
+                       static_cast<contact::SurfaceDegeneration>(f[1]),
+                       f[2] != 0,
+                       f[3],
+                       v[0],
+                       v[1],
+                       v[2],
+                       v[3],
+                       v[4],
+                       v[5],
+                       v[6],
+                       v[7],
+                       v[8],
+                       v[9],
+                       v[10],
+                       v[11],
+                       v[12],
+                       Eigen::Vector3d(v[13], v[14], v[15]),
+                       Eigen::Vector3d(v[16], v[17], v[18]),
+                       Eigen::Vector3d(v[19], v[20], v[21])});
   }
   return c;
 }
@@ -326,6 +439,8 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
 
     if (c.contact)
       write_contact(root, *c.contact);
+    if (c.surface_contact)
+      write_surface_contact(root, *c.surface_contact);
     if (c.explicit_progress)
       write_explicit(root, *c.explicit_progress);
     file.close();
@@ -417,6 +532,8 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
 
   if (h5::exists(root, "contact"))
     c.contact = read_contact(root);
+  if (h5::exists(root, "surface_contact"))
+    c.surface_contact = read_surface_contact(root);
   if (h5::exists(root, "explicit"))
     c.explicit_progress = read_explicit(root, n);
   return out;

@@ -13,11 +13,19 @@
 //                column-major; gauss_Q (2 n_elements, 9), gauss_kappa (2 n_elements, 3);
 //                reactions, load_n (n_nodes, 6)
 //   /pattern     groups (n, 6) int32, calls (n_calls) int32 (SimulationCheckpoint)
-//   /contact     attribute candidates_version; boxes_<k> (n_segments, 6): min then max corner of
-//                definition k's last search; committed_keys (n, 3) int32, committed (n, 3):
-//                xi_A, xi_B, active; pair_keys (n, 3) int32, pair_flags (n, 4) int32: status,
-//                degenerate, active, iterations; pair_values (n, 17): xi_A, xi_B, distance, gap,
-//                penetration, penetration_rate, force, potential, point_A, point_B, normal
+//   /contact     with spline contact: attributes candidates_version, definitions;
+//                boxes_<k> (n_segments, 6): min then max corner of definition k's last search;
+//                committed_keys (n, 3) int32, committed (n, 3): xi_A, xi_B, active; pair_keys
+//                (n, 3) int32, pair_flags (n, 4) int32: status, degenerate, active, iterations;
+//                pair_values (n, 17): xi_A, xi_B, distance, gap, penetration, penetration_rate,
+//                force, potential, point_A, point_B, normal
+//   /surface_contact  with surface contact: attributes candidates_version, definitions,
+//                summary_* (the last evaluation's ContactSummary); boxes_<k> as /contact;
+//                committed_keys (n, 3) int32, committed (n, 5): zeta_A, theta_A, zeta_B, theta_B,
+//                active; pair_keys (n, 3) int32, pair_flags (n, 4) int32: status, degeneration,
+//                active, iterations; pair_values (n, 22): zeta_A, theta_A, zeta_B, theta_B, gap,
+//                penetration, penetration_rate, force, potential, share, share_A, share_B,
+//                factor, point_A, point_B, normal
 //   /explicit    inside an explicit step: ExplicitProgress (scalars as attributes)
 // Every double is stored as is, so a restart reads back the very bits of the run.
 

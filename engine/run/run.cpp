@@ -421,17 +421,18 @@ double node_radius_of(const Section& s, double element_length) {
 output::StoredCheckpoint prepare_restart(const Model& model, const RunOptions& options,
                                          const std::string& deck_hash) {
   const std::filesystem::path& from = options.restart_from;
-  if (!model.surface_contacts.empty())
-    throw output::RestartError(fmt::format(
-        "cannot restart from {}: the deck has surface contact ('{}'), whose warm starts the "
-        "checkpoint does not hold yet; restart works with spline contact or no contact",
-        from.string(), model.surface_contacts.front().name));
   output::StoredCheckpoint c = output::read_checkpoint(from);
   if (c.outputs.deck_hash != deck_hash)
     throw output::RestartError(fmt::format(
         "cannot restart from {}: its run was made from another deck (fingerprint {}, this deck "
         "{}: the text or the geometry it reads differ); a restart goes on with the same deck",
         from.string(), c.outputs.deck_hash, deck_hash));
+  // Versions before surface contact restarts wrote checkpoints without its state.
+  if (!model.surface_contacts.empty() && !c.simulation.surface_contact)
+    throw output::RestartError(fmt::format(
+        "cannot restart from {}: its checkpoint holds no surface contact state (contact '{}'; "
+        "it was written by an earlier version, which did not save it)",
+        from.string(), model.surface_contacts.front().name));
   const std::filesystem::path& to = options.output_dir;
   std::error_code ec;
   if (std::filesystem::exists(to) && std::filesystem::equivalent(from, to, ec))

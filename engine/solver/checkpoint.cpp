@@ -1,7 +1,7 @@
 // Taking and restoring a Simulation's checkpoint (checkpoint.hpp). A restored simulation holds
 // the same numbers as the one that took the checkpoint, bit for bit, wherever they feed the next
 // increment: the converged state and its histories, the step size in use, the work sums, the
-// contact set's search boxes, warm starts and last evaluation, the tangent's sparsity pattern
+// contact sets' search boxes, warm starts and last evaluation, the tangent's sparsity pattern
 // (replayed, so that the fill-reducing ordering and hence the round-off are the same) and, inside
 // an explicit step, the central-difference integrator.
 
@@ -37,9 +37,10 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.explicit_status = explicit_status_;
   if (explicit_)
     c.explicit_progress = explicit_progress();
-  // Surface contact is not saved (run_model refuses to restart such a model).
   if (contact_ && contact_->spline())
     c.contact = contact_->spline()->snapshot();
+  if (contact_ && contact_->surface())
+    c.surface_contact = contact_->surface()->snapshot();
   c.pattern_groups = pattern_groups_;
   c.pattern_calls = pattern_calls_;
   c.coupled_candidates = coupled_candidates_;
@@ -65,10 +66,16 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   require_columns("gauss", static_cast<Eigen::Index>(s.gauss.size()), ne);
   require_columns("reactions", from.reactions.cols(), n);
   require_columns("load_n", from.load_n.cols(), n);
-  if (from.contact.has_value() != static_cast<bool>(contact_))
+  const bool spline = contact_ && contact_->spline();
+  if (from.contact.has_value() != spline)
     throw std::invalid_argument(fmt::format("checkpoint: {} spline contact, the model {}",
                                             from.contact ? "has" : "has no",
-                                            contact_ ? "has" : "has none"));
+                                            spline ? "has" : "has none"));
+  const bool surface = contact_ && contact_->surface();
+  if (from.surface_contact.has_value() != surface)
+    throw std::invalid_argument(fmt::format("checkpoint: {} surface contact, the model {}",
+                                            from.surface_contact ? "has" : "has no",
+                                            surface ? "has" : "has none"));
   if (from.explicit_progress && (from.explicit_progress->step != from.step ||
                                  model.steps[from.step].type != StepType::Explicit))
     throw std::invalid_argument(fmt::format(
@@ -95,8 +102,10 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   explicit_status_ = from.explicit_status;
   if (from.explicit_progress)
     resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);
-  if (contact_ && contact_->spline() && from.contact)
+  if (spline)
     contact_->spline()->restore(*from.contact);
+  if (surface)
+    contact_->surface()->restore(*from.surface_contact);
 
   // The pattern grows as it did, call by call, from the beams' pattern.
   int begin = 0;

@@ -6,6 +6,7 @@
 // it in DIR/checkpoint.h5.
 
 #include "engine/contact/spline_contact_set.hpp"
+#include "engine/contact/surface_contact_set.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/state/state.hpp"
 
@@ -49,6 +50,8 @@ struct SimulationCheckpoint {
   ExplicitStatus explicit_status;
   std::optional<ExplicitProgress> explicit_progress; ///< when stopped inside an explicit step
   std::optional<SplineContactSet::Snapshot> contact; ///< when the model has spline contact
+  /// When the model has surface contact.
+  std::optional<SurfaceContactSet::Snapshot> surface_contact;
   /// Contact couplings of each call that grew the tangent's pattern, in order (each group once,
   /// at its first call): replayed through Assembler::ensure_couplings they rebuild the same
   /// pattern, hence the same ordering and factorisation. pattern_calls[k] is the end of call k.

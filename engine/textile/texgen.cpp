@@ -12,6 +12,8 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <optional>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -27,7 +29,6 @@ struct SectionSpec {
   double width = 0;
   double height = 0;
   double power = 1; ///< CSectionPowerEllipse
-  int line = 0;
 };
 
 /// A yarn path as TexGen stores it, in file units.
@@ -40,8 +41,8 @@ struct YarnSpec {
   bool periodic = true;
   bool force_master_tangent_in_plane = false;
   SectionSpec section;
-  int line = 0;
-  std::string what; ///< "Yarn index=3" for messages
+  XmlPosition at;   ///< of its <Yarn>, or of the weave's <Textile>
+  std::string what; ///< "yarn 3" for messages
 };
 
 class Reader {
@@ -50,9 +51,12 @@ public:
       : source_(std::move(source)), options_(options) {}
 
   Fabric read(std::string_view text) {
-    const XmlElement root = parse_xml(text, source_);
-    if (root.name != "TexGenModel")
-      fail(root, fmt::format("expected the root element <TexGenModel>, found <{}>", root.name));
+    const XmlElement root = parse_xml(text, source_); // a syntax error stops the reading
+    if (root.name != "TexGenModel") {
+      report(root.position(),
+             fmt::format("expected the root element <TexGenModel>, found <{}>", root.name));
+      stop();
+    }
     const XmlElement* textile = nullptr;
     std::vector<std::string> names;
     for (const XmlElement* t : root.children_named("Textile")) {
@@ -61,43 +65,89 @@ public:
       if (textile == nullptr && (options_.textile.empty() || (name && *name == options_.textile)))
         textile = t;
     }
-    if (textile == nullptr)
-      fail(root, options_.textile.empty() ? std::string("expected a <Textile>, found none")
-                                          : fmt::format("no <Textile> named '{}' (found: {})",
-                                                        options_.textile, fmt::join(names, ", ")));
+    if (textile == nullptr) {
+      report(root.position(),
+             options_.textile.empty()
+                 ? std::string("expected a <Textile>, found none")
+                 : fmt::format("expected a <Textile> named '{}', found {}", options_.textile,
+                               names.empty() ? std::string("none")
+                                             : fmt::format("'{}'", fmt::join(names, "', '"))));
+      stop();
+    }
     scale_ = length_scale(*textile);
     std::vector<YarnSpec> yarns;
     const bool has_pattern = textile->child("PatternCell") != nullptr;
     const bool has_yarns = textile->child("Yarn") != nullptr;
     const std::string* needs_building = textile->attribute("NeedsBuilding");
     const bool stale = needs_building != nullptr && *needs_building != "0";
-    if (has_pattern && (!has_yarns || stale || options_.rebuild_weaves))
+    if (has_pattern && (!has_yarns || stale || options_.rebuild_weaves)) {
       yarns = weave_yarns(*textile);
-    else if (has_yarns)
+    } else if (has_yarns) {
+      // Each yarn is read whatever the others hold.
       for (const XmlElement* y : textile->children_named("Yarn"))
-        yarns.push_back(explicit_yarn(*y));
-    else
-      fail(*textile, "expected <Yarn> elements or a weave pattern (<PatternCell>), found neither");
+        if (std::optional<YarnSpec> spec = explicit_yarn(*y))
+          yarns.push_back(std::move(*spec));
+    } else {
+      report(textile->position(), "expected <Yarn> elements or a weave pattern (<PatternCell>), "
+                                  "found neither");
+    }
     return build(*textile, yarns);
   }
 
 private:
-  [[noreturn]] void fail(const XmlElement& e, const std::string& message) const {
-    throw InputError({fmt::format("{}:{}: {}", source_, e.line, message)});
-  }
-  [[noreturn]] void fail(int line, const std::string& message) const {
-    throw InputError({fmt::format("{}:{}: {}", source_, line, message)});
+  /// A problem of the file: where, and what was expected and found.
+  struct Problem {
+    XmlPosition at;
+    std::string message;
+  };
+
+  /// Records a problem; the reader goes on where the rest of the file can still be read.
+  void report(XmlPosition at, std::string message) {
+    problems_.push_back({at, std::move(message)});
   }
 
-  const std::string& attribute(const XmlElement& e, std::string_view key) const {
+  /// Throws InputError with every problem recorded, in file order (line, then column, then
+  /// order of discovery), each once, as "file:line:col: message".
+  [[noreturn]] void stop() const {
+    std::vector<std::size_t> order(problems_.size());
+    for (std::size_t i = 0; i < order.size(); ++i)
+      order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t i, std::size_t j) {
+      const XmlPosition& a = problems_[i].at;
+      const XmlPosition& b = problems_[j].at;
+      return a.line != b.line ? a.line < b.line : a.column < b.column;
+    });
+    std::vector<std::string> messages;
+    std::set<std::string> seen;
+    for (std::size_t i : order) {
+      const Problem& p = problems_[i];
+      std::string text = fmt::format("{}:{}:{}: {}", source_, p.at.line, p.at.column, p.message);
+      if (seen.insert(text).second)
+        messages.push_back(std::move(text));
+    }
+    throw InputError(std::move(messages));
+  }
+
+  // Attribute readers: each returns the value, or records the problem at the value (at the
+  // element for a missing attribute) and returns nothing.
+
+  /// The attribute's value; `what` describes the value expected, for a missing attribute.
+  const std::string* required(const XmlElement& e, std::string_view key, std::string_view what) {
     const std::string* v = e.attribute(key);
     if (v == nullptr)
-      fail(e, fmt::format("<{}> has no '{}' attribute", e.name, key));
-    return *v;
+      report(e.position(), fmt::format("<{}>: missing attribute '{}' ({})", e.name, key, what));
+    return v;
   }
 
-  std::vector<double> numbers(const XmlElement& e, std::string_view key,
-                              const std::string& text) const {
+  /// `expected`: what the value must be ("a number > 0"); `found`: the value as written.
+  void report_value(const XmlElement& e, std::string_view key, std::string_view expected,
+                    std::string_view found) {
+    report(e.position_of(key), fmt::format("<{}> attribute '{}': expected {}, found \"{}\"", e.name,
+                                           key, expected, found));
+  }
+
+  /// The comma-separated numbers of a value, or nothing (no problem recorded) when malformed.
+  static std::optional<std::vector<double>> parse_numbers(const std::string& text) {
     std::vector<double> out;
     std::string item;
     std::stringstream stream(text);
@@ -110,42 +160,66 @@ private:
       for (const char* c = end; *c != '\0'; ++c)
         rest_blank = rest_blank && std::isspace(static_cast<unsigned char>(*c));
       if (end == begin || !rest_blank || !std::isfinite(v) || errno == ERANGE)
-        fail(e, fmt::format("<{}> attribute '{}': expected numbers separated by commas, found "
-                            "\"{}\"",
-                            e.name, key, text));
+        return std::nullopt;
       out.push_back(v);
     }
     return out;
   }
 
-  double number(const XmlElement& e, std::string_view key) const {
-    const std::vector<double> v = numbers(e, key, attribute(e, key));
-    if (v.size() != 1)
-      fail(e, fmt::format("<{}> attribute '{}': expected a number, found \"{}\"", e.name, key,
-                          attribute(e, key)));
-    return v[0];
+  /// `count` numbers separated by commas.
+  std::optional<std::vector<double>> numbers(const XmlElement& e, std::string_view key,
+                                             std::size_t count, std::string_view expected) {
+    const std::string* text = required(e, key, expected);
+    if (text == nullptr)
+      return std::nullopt;
+    std::optional<std::vector<double>> v = parse_numbers(*text);
+    if (!v || v->size() != count) {
+      report_value(e, key, expected, *text);
+      return std::nullopt;
+    }
+    return v;
   }
-  double number_or(const XmlElement& e, std::string_view key, double fallback) const {
-    return e.attribute(key) != nullptr ? number(e, key) : fallback;
+
+  /// A finite number; > 0 when `positive`.
+  std::optional<double> number(const XmlElement& e, std::string_view key, bool positive = false) {
+    const std::string_view expected = positive ? "a number > 0" : "a number";
+    const std::optional<std::vector<double>> v = numbers(e, key, 1, expected);
+    if (!v)
+      return std::nullopt;
+    if (positive && !((*v)[0] > 0)) {
+      report_value(e, key, expected, *e.attribute(key));
+      return std::nullopt;
+    }
+    return (*v)[0];
   }
-  int integer(const XmlElement& e, std::string_view key) const {
-    const double v = number(e, key);
-    if (v != std::floor(v) || std::abs(v) > 1e9)
-      fail(e, fmt::format("<{}> attribute '{}': expected an integer, found \"{}\"", e.name, key,
-                          attribute(e, key)));
-    return static_cast<int>(v);
+  std::optional<double> number_or(const XmlElement& e, std::string_view key, double fallback,
+                                  bool positive = false) {
+    return e.attribute(key) != nullptr ? number(e, key, positive) : fallback;
   }
-  Eigen::Vector3d vector(const XmlElement& e, std::string_view key) const {
-    const std::vector<double> v = numbers(e, key, attribute(e, key));
-    if (v.size() != 3)
-      fail(e, fmt::format("<{}> attribute '{}': expected 3 numbers \"x, y, z\", found \"{}\"",
-                          e.name, key, attribute(e, key)));
-    return {v[0], v[1], v[2]};
+  /// An integer in [lo, hi]; `expected` describes it.
+  std::optional<int> integer(const XmlElement& e, std::string_view key, int lo, int hi,
+                             std::string_view expected) {
+    const std::string* text = required(e, key, expected);
+    if (text == nullptr)
+      return std::nullopt;
+    const std::optional<std::vector<double>> v = parse_numbers(*text);
+    if (!v || v->size() != 1 || (*v)[0] != std::floor((*v)[0]) || (*v)[0] < lo || (*v)[0] > hi) {
+      report_value(e, key, expected, *text);
+      return std::nullopt;
+    }
+    return static_cast<int>((*v)[0]);
   }
-  Eigen::Vector3d vector_or_zero(const XmlElement& e, std::string_view key) const {
+  std::optional<Eigen::Vector3d> vector(const XmlElement& e, std::string_view key) {
+    const std::optional<std::vector<double>> v =
+        numbers(e, key, 3, "3 numbers \"x, y, z\" separated by commas");
+    if (!v)
+      return std::nullopt;
+    return Eigen::Vector3d((*v)[0], (*v)[1], (*v)[2]);
+  }
+  std::optional<Eigen::Vector3d> vector_or_zero(const XmlElement& e, std::string_view key) {
     return e.attribute(key) != nullptr ? vector(e, key) : Eigen::Vector3d::Zero();
   }
-  bool flag(const XmlElement& e, std::string_view key, bool fallback) const {
+  std::optional<bool> flag(const XmlElement& e, std::string_view key, bool fallback) {
     const std::string* v = e.attribute(key);
     if (v == nullptr)
       return fallback;
@@ -153,10 +227,12 @@ private:
       return true;
     if (*v == "0" || *v == "false")
       return false;
-    fail(e, fmt::format("<{}> attribute '{}': expected 0 or 1, found \"{}\"", e.name, key, *v));
+    report_value(e, key, "0 or 1", *v);
+    return std::nullopt;
   }
 
-  double length_scale(const XmlElement& textile) const {
+  /// m per file unit; a bad GeometryScale is recorded and read as "mm".
+  double length_scale(const XmlElement& textile) {
     if (options_.length_scale > 0)
       return options_.length_scale;
     const std::string* unit = textile.attribute("GeometryScale");
@@ -165,17 +241,19 @@ private:
     static const std::map<std::string, double> kUnits{
         {"m", 1.0}, {"cm", 1e-2}, {"um", 1e-6}, {"micron", 1e-6}, {"in", 0.0254}, {"inch", 0.0254}};
     const auto it = kUnits.find(*unit);
-    if (it == kUnits.end())
-      fail(textile, fmt::format("GeometryScale: expected \"mm\", \"cm\", \"m\", \"um\" or \"in\", "
-                                "found \"{}\"",
-                                *unit));
+    if (it == kUnits.end()) {
+      report_value(textile, "GeometryScale", "\"mm\", \"cm\", \"m\", \"um\" or \"in\"", *unit);
+      return 1e-3;
+    }
     return it->second;
   }
 
-  SectionSpec section(const XmlElement& yarn) const {
+  std::optional<SectionSpec> section(const XmlElement& yarn) {
     const XmlElement* ys = yarn.child("YarnSection");
-    if (ys == nullptr)
-      fail(yarn, "<Yarn> has no <YarnSection>");
+    if (ys == nullptr) {
+      report(yarn.position(), "<Yarn>: expected a <YarnSection>, found none");
+      return std::nullopt;
+    }
     // Constant: one <Section>; interpolated: the first <Section> found stands for all.
     const XmlElement* s = nullptr;
     std::vector<const XmlElement*> stack{ys};
@@ -189,128 +267,245 @@ private:
         stack.push_back(&*it);
       }
     }
-    if (s == nullptr)
-      fail(*ys, "<YarnSection> holds no <Section>");
-    SectionSpec spec;
-    spec.line = s->line;
-    spec.type = attribute(*s, "type");
+    if (s == nullptr) {
+      report(ys->position(), "<YarnSection>: expected a <Section>, found none");
+      return std::nullopt;
+    }
     static constexpr std::string_view kTypes[] = {"CSectionEllipse", "CSectionLenticular",
                                                   "CSectionPowerEllipse", "CSectionRectangle"};
-    if (std::find(std::begin(kTypes), std::end(kTypes), spec.type) == std::end(kTypes))
-      fail(*s, fmt::format("section type \"{}\" is not supported (supported: {})", spec.type,
-                           fmt::join(kTypes, ", ")));
-    spec.width = number(*s, "Width");
-    spec.height = number(*s, "Height");
-    if (!(spec.width > 0 && spec.height > 0))
-      fail(*s, fmt::format("expected a section Width and Height > 0, found {} and {}", spec.width,
-                           spec.height));
-    if (spec.type == "CSectionLenticular" && number_or(*s, "Distortion", 0) != 0)
-      fail(*s, "lenticular sections with a Distortion are not supported");
-    if (spec.type == "CSectionPowerEllipse") {
-      spec.power = number(*s, "Power");
-      if (!(spec.power > 0))
-        fail(*s, fmt::format("expected a Power > 0, found {}", spec.power));
+    const std::string supported = fmt::format("{}", fmt::join(kTypes, ", "));
+    SectionSpec spec;
+    bool ok = true;
+    if (const std::string* type = required(*s, "type", supported)) {
+      spec.type = *type;
+      if (std::find(std::begin(kTypes), std::end(kTypes), spec.type) == std::end(kTypes)) {
+        report(s->position_of("type"),
+               fmt::format("<Section> attribute 'type': expected a supported section type ({}), "
+                           "found \"{}\"",
+                           supported, spec.type));
+        // Its other attributes depend on the type: nothing more to check.
+        return std::nullopt;
+      }
+    } else {
+      return std::nullopt;
     }
+    const std::optional<double> width = number(*s, "Width", true);
+    const std::optional<double> height = number(*s, "Height", true);
+    ok = width && height;
+    if (spec.type == "CSectionLenticular") {
+      const std::optional<double> distortion = number_or(*s, "Distortion", 0);
+      if (distortion && *distortion != 0) {
+        report_value(*s, "Distortion",
+                     "0 (lenticular sections with a distortion are not supported)",
+                     *s->attribute("Distortion"));
+        ok = false;
+      }
+      ok = ok && distortion;
+    }
+    if (spec.type == "CSectionPowerEllipse") {
+      const std::optional<double> power = number(*s, "Power", true);
+      ok = ok && power;
+      if (power)
+        spec.power = *power;
+    }
+    if (!ok)
+      return std::nullopt;
+    spec.width = *width;
+    spec.height = *height;
     return spec;
   }
 
-  YarnSpec explicit_yarn(const XmlElement& y) const {
+  /// A <Yarn> as written; nothing when it has problems (all of them recorded).
+  std::optional<YarnSpec> explicit_yarn(const XmlElement& y) {
     YarnSpec spec;
-    spec.line = y.line;
+    spec.at = y.position();
     const std::string* index = y.attribute("index");
     spec.what = fmt::format("yarn {}", index != nullptr ? *index : "?");
+    bool ok = true;
     if (const XmlElement* interp = y.child("Interpolation")) {
-      const std::string& type = attribute(*interp, "type");
-      if (type == "CInterpolationBezier")
-        spec.interpolation = Interpolation::Bezier;
-      else if (type == "CInterpolationCubic")
-        spec.interpolation = Interpolation::Cubic;
-      else
-        fail(*interp, fmt::format("interpolation \"{}\" is not supported (supported: "
-                                  "CInterpolationBezier, CInterpolationCubic)",
-                                  type));
-      spec.periodic = flag(*interp, "Periodic", true);
-      spec.force_master_tangent_in_plane = flag(*interp, "ForceMasterNodeTangent", false);
+      if (const std::string* type =
+              required(*interp, "type", "CInterpolationBezier or CInterpolationCubic")) {
+        if (*type == "CInterpolationBezier")
+          spec.interpolation = Interpolation::Bezier;
+        else if (*type == "CInterpolationCubic")
+          spec.interpolation = Interpolation::Cubic;
+        else {
+          report_value(*interp, "type",
+                       "a supported interpolation (CInterpolationBezier, CInterpolationCubic)",
+                       *type);
+          ok = false;
+        }
+      } else {
+        ok = false;
+      }
+      const std::optional<bool> periodic = flag(*interp, "Periodic", true);
+      const std::optional<bool> in_plane = flag(*interp, "ForceMasterNodeTangent", false);
+      ok = ok && periodic && in_plane;
+      spec.periodic = periodic.value_or(true);
+      spec.force_master_tangent_in_plane = in_plane.value_or(false);
     }
-    for (const XmlElement* r : y.children_named("Repeat"))
-      spec.repeats.push_back(vector(*r, "value"));
-    for (const XmlElement* n : y.children_named("MasterNode")) {
-      spec.nodes.push_back(vector(*n, "Position"));
-      spec.tangents.push_back(vector_or_zero(*n, "Tangent"));
-      spec.ups.push_back(vector_or_zero(*n, "Up"));
+    for (const XmlElement* r : y.children_named("Repeat")) {
+      const std::optional<Eigen::Vector3d> v = vector(*r, "value");
+      ok = ok && v;
+      if (v)
+        spec.repeats.push_back(*v);
     }
-    if (spec.nodes.size() < 2)
-      fail(y, fmt::format("{}: expected at least 2 <MasterNode>, found {}", spec.what,
-                          spec.nodes.size()));
-    for (std::size_t k = 0; k + 1 < spec.nodes.size(); ++k)
-      if ((spec.nodes[k + 1] - spec.nodes[k]).norm() == 0)
-        fail(*y.children_named("MasterNode")[k + 1],
-             fmt::format("{}: master nodes {} and {} are at the same position", spec.what, k,
-                         k + 1));
-    spec.section = section(y);
+    const std::vector<const XmlElement*> masters = y.children_named("MasterNode");
+    bool nodes_ok = true;
+    for (const XmlElement* n : masters) {
+      const std::optional<Eigen::Vector3d> position = vector(*n, "Position");
+      const std::optional<Eigen::Vector3d> tangent = vector_or_zero(*n, "Tangent");
+      const std::optional<Eigen::Vector3d> up = vector_or_zero(*n, "Up");
+      nodes_ok = nodes_ok && position && tangent && up;
+      spec.nodes.push_back(position.value_or(Eigen::Vector3d::Zero()));
+      spec.tangents.push_back(tangent.value_or(Eigen::Vector3d::Zero()));
+      spec.ups.push_back(up.value_or(Eigen::Vector3d::Zero()));
+    }
+    if (masters.size() < 2) {
+      report(y.position(), fmt::format("{}: expected at least 2 <MasterNode>, found {}", spec.what,
+                                       masters.size()));
+      nodes_ok = false;
+    }
+    if (nodes_ok)
+      for (std::size_t k = 0; k + 1 < spec.nodes.size(); ++k)
+        if ((spec.nodes[k + 1] - spec.nodes[k]).norm() == 0) {
+          report(masters[k + 1]->position_of("Position"),
+                 fmt::format("{}: expected master node {} apart from master node {}, found both "
+                             "at the same position",
+                             spec.what, k + 1, k));
+          nodes_ok = false;
+        }
+    const std::optional<SectionSpec> section_spec = section(y);
+    if (!ok || !nodes_ok || !section_spec)
+      return std::nullopt;
+    spec.section = *section_spec;
     return spec;
   }
 
-  /// Yarns of a weave textile from its pattern (see texgen.hpp).
-  std::vector<YarnSpec> weave_yarns(const XmlElement& t) const {
-    const int nx = integer(t, "NumXYarns"); // X yarns: along x, one per row y
-    const int ny = integer(t, "NumYYarns"); // Y yarns: along y, one per column x
-    if (nx < 1 || ny < 1)
-      fail(t, fmt::format("expected NumXYarns and NumYYarns >= 1, found {} and {}", nx, ny));
-    const double gap = number_or(t, "GapSize", 0);
+  /// Yarns of a weave textile from its pattern (see texgen.hpp); none when the pattern has
+  /// problems (all of them recorded).
+  std::vector<YarnSpec> weave_yarns(const XmlElement& t) {
+    // X yarns: along x, one per row y; Y yarns: along y, one per column x.
+    const std::optional<int> nx_read =
+        integer(t, "NumXYarns", 1, 10000, "an integer in [1, 10000]");
+    const std::optional<int> ny_read =
+        integer(t, "NumYYarns", 1, 10000, "an integer in [1, 10000]");
+    const std::optional<double> gap_read = number_or(t, "GapSize", 0);
+    bool ok = nx_read && ny_read && gap_read;
+    // Without the counts the pattern's entries are still checked, but not their ranges.
+    const int nx = nx_read.value_or(0);
+    const int ny = ny_read.value_or(0);
+    const double gap = gap_read.value_or(0);
     struct Data {
       double width = 0, height = 0, spacing = 0;
       bool given = false;
     };
-    auto yarn_data = [&](std::string_view name, int count) {
+    auto yarn_data = [&](std::string_view name, int count, bool count_known) {
       std::vector<Data> data(static_cast<std::size_t>(count));
+      const std::string range = count_known ? fmt::format("an integer in [0, {})", count)
+                                            : std::string("an integer >= 0");
       for (const XmlElement* d : t.children_named(name)) {
-        const int i = integer(*d, "index");
-        if (i < 0 || i >= count)
-          fail(*d, fmt::format("<{}> index {} out of range [0, {})", name, i, count));
-        data[static_cast<std::size_t>(i)] = {number(*d, "Width"), number(*d, "Height"),
-                                             number(*d, "Spacing"), true};
-        const Data& v = data[static_cast<std::size_t>(i)];
-        if (!(v.width > 0 && v.height > 0 && v.spacing > 0))
-          fail(*d, fmt::format("expected Width, Height and Spacing > 0, found {}, {}, {}", v.width,
-                               v.height, v.spacing));
+        const std::optional<int> i =
+            integer(*d, "index", 0, count_known ? count - 1 : 1'000'000, range);
+        const std::optional<double> width = number(*d, "Width", true);
+        const std::optional<double> height = number(*d, "Height", true);
+        const std::optional<double> spacing = number(*d, "Spacing", true);
+        ok = ok && i && width && height && spacing;
+        if (!i || !count_known)
+          continue;
+        // An entry with a good index counts as given, whatever its sizes.
+        Data& v = data[static_cast<std::size_t>(*i)];
+        if (v.given) {
+          report(d->position_of("index"),
+                 fmt::format("<{}> attribute 'index': expected each index once, found {} again",
+                             name, *i));
+          ok = false;
+        }
+        v = {width.value_or(0), height.value_or(0), spacing.value_or(0), true};
       }
-      for (int i = 0; i < count; ++i)
-        if (!data[static_cast<std::size_t>(i)].given)
-          fail(t, fmt::format("no <{} index=\"{}\">", name, i));
+      // A count beyond the file's entries is one problem, not one per missing index.
+      const std::size_t given = t.children_named(name).size();
+      if (count_known && given < static_cast<std::size_t>(count)) {
+        report(t.position(),
+               fmt::format("expected a <{}> for each of the {} {} yarns (Num{}Yarns), found {}",
+                           name, count, name.substr(0, 1), name.substr(0, 1), given));
+        ok = false;
+      } else if (count_known) {
+        for (int i = 0; i < count; ++i)
+          if (!data[static_cast<std::size_t>(i)].given) {
+            report(t.position(), fmt::format("expected a <{} index=\"{}\">, found none", name, i));
+            ok = false;
+          }
+      }
       return data;
     };
-    const std::vector<Data> xdata = yarn_data("XYarnData", nx);
-    const std::vector<Data> ydata = yarn_data("YYarnData", ny);
+    const std::vector<Data> xdata = yarn_data("XYarnData", nx, nx_read.has_value());
+    const std::vector<Data> ydata = yarn_data("YYarnData", ny, ny_read.has_value());
 
-    // cells[x][y]: entries from the bottom up.
-    std::vector<std::vector<std::vector<int>>> cells(
-        static_cast<std::size_t>(ny), std::vector<std::vector<int>>(static_cast<std::size_t>(nx)));
-    std::vector<std::vector<int>> cell_line(static_cast<std::size_t>(ny),
-                                            std::vector<int>(static_cast<std::size_t>(nx), 0));
-    for (const XmlElement* c : t.children_named("PatternCell")) {
-      const int x = integer(*c, "x");
-      const int y = integer(*c, "y");
-      if (x < 0 || x >= ny || y < 0 || y >= nx)
-        fail(*c, fmt::format("<PatternCell x=\"{}\" y=\"{}\"> outside the {} x {} pattern", x, y,
-                             ny, nx));
-      auto& cell = cells[static_cast<std::size_t>(x)][static_cast<std::size_t>(y)];
-      if (cell_line[static_cast<std::size_t>(x)][static_cast<std::size_t>(y)] != 0)
-        fail(*c, fmt::format("<PatternCell x=\"{}\" y=\"{}\"> given twice", x, y));
-      cell_line[static_cast<std::size_t>(x)][static_cast<std::size_t>(y)] = c->line;
-      for (const XmlElement* e : c->children_named("PatternElement")) {
-        const int v = integer(*e, "value");
-        if (v < 0 || v > 2)
-          fail(*e, fmt::format("expected a pattern value 0 (Y yarn), 1 (X yarn) or 2 (none), "
-                               "found {}",
-                               v));
-        cell.push_back(v);
-      }
+    // cells[x][y]: entries from the bottom up; cell_at[x][y]: where the cell is (line 0: absent).
+    // Cells are matched to the pattern only when there are enough of them: a count beyond the
+    // file's cells is one problem, not one per missing cell.
+    const std::vector<const XmlElement*> cell_elements = t.children_named("PatternCell");
+    bool counts = nx_read && ny_read;
+    if (counts &&
+        static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny) > cell_elements.size()) {
+      report(t.position(),
+             fmt::format("expected a <PatternCell> for each of the {} x {} cells (NumYYarns x "
+                         "NumXYarns), found {}",
+                         ny, nx, cell_elements.size()));
+      ok = false;
+      counts = false;
     }
-    for (int x = 0; x < ny; ++x)
-      for (int y = 0; y < nx; ++y)
-        if (cell_line[static_cast<std::size_t>(x)][static_cast<std::size_t>(y)] == 0)
-          fail(t, fmt::format("no <PatternCell x=\"{}\" y=\"{}\">", x, y));
+    std::vector<std::vector<std::vector<int>>> cells(
+        static_cast<std::size_t>(counts ? ny : 0),
+        std::vector<std::vector<int>>(static_cast<std::size_t>(nx)));
+    std::vector<std::vector<XmlPosition>> cell_at(
+        static_cast<std::size_t>(counts ? ny : 0),
+        std::vector<XmlPosition>(static_cast<std::size_t>(nx)));
+    for (const XmlElement* c : cell_elements) {
+      const std::optional<int> x = integer(
+          *c, "x", 0, ny_read ? ny - 1 : 1'000'000,
+          ny_read ? fmt::format("an integer in [0, {}) (NumYYarns)", ny) : "an integer >= 0");
+      const std::optional<int> y = integer(
+          *c, "y", 0, nx_read ? nx - 1 : 1'000'000,
+          nx_read ? fmt::format("an integer in [0, {}) (NumXYarns)", nx) : "an integer >= 0");
+      std::vector<int> entries;
+      for (const XmlElement* e : c->children_named("PatternElement")) {
+        const std::optional<int> v =
+            integer(*e, "value", 0, 2, "0 (Y yarn), 1 (X yarn) or 2 (none)");
+        if (v)
+          entries.push_back(*v);
+        ok = ok && v;
+      }
+      if (!x || !y) {
+        ok = false;
+        continue;
+      }
+      if (!counts)
+        continue;
+      const auto ux = static_cast<std::size_t>(*x);
+      const auto uy = static_cast<std::size_t>(*y);
+      if (cell_at[ux][uy].line != 0) {
+        report(c->position(),
+               fmt::format("expected each <PatternCell> once, found x=\"{}\" y=\"{}\" again "
+                           "(first at line {})",
+                           *x, *y, cell_at[ux][uy].line));
+        ok = false;
+        continue;
+      }
+      cell_at[ux][uy] = c->position();
+      cells[ux][uy] = std::move(entries);
+    }
+    if (counts)
+      for (int x = 0; x < ny; ++x)
+        for (int y = 0; y < nx; ++y)
+          if (cell_at[static_cast<std::size_t>(x)][static_cast<std::size_t>(y)].line == 0) {
+            report(t.position(),
+                   fmt::format("expected a <PatternCell x=\"{}\" y=\"{}\">, found none", x, y));
+            ok = false;
+          }
+    if (!ok)
+      return {};
 
     // In-plane positions: yarn 0 at 0, neighbours half their spacings apart.
     std::vector<double> xs(static_cast<std::size_t>(ny)), ys(static_cast<std::size_t>(nx));
@@ -355,14 +550,13 @@ private:
     std::vector<YarnSpec> yarns;
     auto make = [&](const Data& d) {
       YarnSpec spec;
-      spec.line = t.line;
+      spec.at = t.position();
       spec.interpolation = Interpolation::Bezier;
       spec.periodic = true;
       spec.repeats = {Eigen::Vector3d(width, 0, 0), Eigen::Vector3d(0, height, 0)};
       spec.section.type = "CSectionEllipse";
       spec.section.width = d.width;
       spec.section.height = d.height;
-      spec.section.line = t.line;
       return spec;
     };
     for (int y = 0; y < nx; ++y) {
@@ -371,11 +565,15 @@ private:
       for (int x = 0; x <= ny; ++x) {
         const int cx = x % ny;
         const std::vector<double> z = layer_heights(cx, y, 1);
-        if (z.size() != layers)
-          fail(cell_line[static_cast<std::size_t>(cx)][static_cast<std::size_t>(y)],
-               fmt::format("<PatternCell x=\"{}\" y=\"{}\"> holds {} X yarns, the row's first cell "
-                           "{}: every cell of a row needs the same number",
-                           cx, y, z.size(), layers));
+        if (z.size() != layers) {
+          report(cell_at[static_cast<std::size_t>(cx)][static_cast<std::size_t>(y)],
+                 fmt::format("<PatternCell x=\"{}\" y=\"{}\">: expected {} X yarns as the row's "
+                             "first cell holds (every cell of a row holds the same number), "
+                             "found {}",
+                             cx, y, layers, z.size()));
+          ok = false;
+          break;
+        }
         const double px = x < ny ? xs[static_cast<std::size_t>(x)] : width + xs[0];
         for (std::size_t l = 0; l < layers; ++l) {
           row[l].nodes.emplace_back(px, ys[static_cast<std::size_t>(y)], z[l]);
@@ -394,11 +592,15 @@ private:
       for (int y = 0; y <= nx; ++y) {
         const int cy = y % nx;
         const std::vector<double> z = layer_heights(x, cy, 0);
-        if (z.size() != layers)
-          fail(cell_line[static_cast<std::size_t>(x)][static_cast<std::size_t>(cy)],
-               fmt::format("<PatternCell x=\"{}\" y=\"{}\"> holds {} Y yarns, the column's first "
-                           "cell {}: every cell of a column needs the same number",
-                           x, cy, z.size(), layers));
+        if (z.size() != layers) {
+          report(cell_at[static_cast<std::size_t>(x)][static_cast<std::size_t>(cy)],
+                 fmt::format("<PatternCell x=\"{}\" y=\"{}\">: expected {} Y yarns as the "
+                             "column's first cell holds (every cell of a column holds the same "
+                             "number), found {}",
+                             x, cy, layers, z.size()));
+          ok = false;
+          break;
+        }
         const double py = y < nx ? ys[static_cast<std::size_t>(y)] : height + ys[0];
         for (std::size_t l = 0; l < layers; ++l) {
           column[l].nodes.emplace_back(xs[static_cast<std::size_t>(x)], py, z[l]);
@@ -411,6 +613,8 @@ private:
         yarns.push_back(std::move(column[l]));
       }
     }
+    if (!ok)
+      return {};
     return yarns;
   }
 
@@ -586,15 +790,19 @@ private:
     const std::string* name = textile.attribute("name");
     model.title = fmt::format("TexGen textile {}", name != nullptr ? *name : source_);
     std::vector<double> radii;
+    // The yarns read without problems are built even when others had some: their own problems
+    // are reported with the rest.
     for (const YarnSpec& spec : specs) {
       try {
         add(fabric, spec, radii);
       } catch (const std::invalid_argument& e) {
-        fail(spec.line, fmt::format("{}: {}", spec.what, e.what()));
+        report(spec.at, fmt::format("{}: {}", spec.what, e.what()));
       }
     }
-    if (fabric.yarns.empty())
-      fail(textile, "the textile has no yarns");
+    if (problems_.empty() && fabric.yarns.empty())
+      report(textile.position(), "expected yarns in the textile, found none");
+    if (!problems_.empty())
+      stop();
     finish_fabric(fabric, radii, options_.contact_law);
     return fabric;
   }
@@ -637,8 +845,10 @@ private:
     // Orientation: warp along x, weft along y, each from its smaller to its larger coordinate.
     const Eigen::Vector3d span = base.nodes.back() - base.nodes.front();
     if (span.head<2>().norm() == 0)
-      throw std::invalid_argument("the yarn's ends are at the same in-plane point (closed or "
-                                  "through-thickness yarns are not supported)");
+      throw std::invalid_argument(
+          fmt::format("expected the yarn's ends at different in-plane points, found both at ({}, "
+                      "{}) m (closed or through-thickness yarns are not supported)",
+                      base.nodes.front().x(), base.nodes.front().y()));
     const bool warp = std::abs(span.x()) >= std::abs(span.y());
     if ((warp ? span.x() : span.y()) < 0) {
       std::reverse(base.nodes.begin(), base.nodes.end());
@@ -651,7 +861,8 @@ private:
     const std::vector<Eigen::Vector3d> points = sample(base, ups);
     for (const auto& p : points)
       if (!p.allFinite())
-        throw std::invalid_argument("the interpolated centre line has a non-finite point");
+        throw std::invalid_argument(
+            "expected a finite interpolated centre line, found a non-finite point");
 
     // Every combination of copies.
     std::vector<int> index(copies.size(), 0);
@@ -675,6 +886,7 @@ private:
   std::string source_;
   const TexGenOptions& options_;
   double scale_ = 1e-3;
+  std::vector<Problem> problems_; ///< in order of discovery
 };
 
 } // namespace

@@ -53,8 +53,13 @@ struct TexGenOptions {
   bool rebuild_weaves = false;
 };
 
-/// Reads a .tg3 file. Throws InputError (engine/model/deck.hpp) with "file:line: message" for a
-/// file that cannot be read, bad XML, missing or malformed attributes and unsupported content.
+/// Reads a .tg3 file. Throws InputError (engine/model/deck.hpp) listing every problem of the file
+/// at once, in file order, each as "file:line:col: message" saying what was expected and what was
+/// found: missing or malformed attributes (at the attribute's value), missing or unsupported
+/// elements and content (at the element's '<'), a weave pattern that does not fit its counts. Each
+/// yarn, section, master node and pattern cell is checked whatever its neighbours hold. An XML
+/// syntax error stops the reading at its position, as the rest of the file cannot be trusted; a
+/// file that cannot be read is one "file: message".
 Fabric read_texgen(const std::filesystem::path& file, const TexGenOptions& options);
 
 /// As read_texgen, from text; `source_name` stands for the file name in messages.

@@ -15,6 +15,13 @@ const std::string* XmlElement::attribute(std::string_view key) const {
   return nullptr;
 }
 
+XmlPosition XmlElement::position_of(std::string_view key) const {
+  for (std::size_t i = 0; i < attributes.size() && i < value_positions.size(); ++i)
+    if (attributes[i].first == key)
+      return value_positions[i];
+  return position();
+}
+
 std::vector<const XmlElement*> XmlElement::children_named(std::string_view child) const {
   std::vector<const XmlElement*> out;
   for (const XmlElement& c : children)
@@ -54,17 +61,16 @@ private:
     throw InputError({fmt::format("{}:{}:{}: {}", source_, line_, column(), message)});
   }
 
-  int column() const {
-    const std::size_t start = text_.rfind('\n', pos_ == 0 ? 0 : pos_ - 1);
-    return static_cast<int>(start == std::string_view::npos || pos_ == 0 ? pos_ + 1 : pos_ - start);
-  }
+  int column() const { return static_cast<int>(pos_ - line_start_) + 1; }
   bool at_end() const { return pos_ >= text_.size(); }
   char peek() const { return text_[pos_]; }
   bool starts_with(std::string_view s) const { return text_.substr(pos_).starts_with(s); }
   void advance(std::size_t n = 1) {
     for (std::size_t k = 0; k < n && pos_ < text_.size(); ++k)
-      if (text_[pos_++] == '\n')
+      if (text_[pos_++] == '\n') {
         ++line_;
+        line_start_ = pos_;
+      }
   }
   void skip_space() {
     while (!at_end() && std::isspace(static_cast<unsigned char>(peek())))
@@ -72,12 +78,9 @@ private:
   }
   /// Skips to just after `end`; an error naming `what` when it never comes.
   void skip_past(std::string_view end, std::string_view what) {
-    const int line = line_;
     const std::size_t at = text_.find(end, pos_);
-    if (at == std::string_view::npos) {
-      line_ = line;
+    if (at == std::string_view::npos)
       fail(fmt::format("unterminated {} (no '{}')", what, end));
-    }
     advance(at + end.size() - pos_);
   }
   /// Whitespace, comments, processing instructions and DOCTYPE between elements.
@@ -149,6 +152,7 @@ private:
   XmlElement element() {
     XmlElement e;
     e.line = line_;
+    e.column = column();
     advance(); // '<'
     e.name = name("an element name");
     for (;;) {
@@ -173,6 +177,7 @@ private:
         fail(fmt::format("expected a quoted value for attribute '{}'", key));
       const char quote = peek();
       advance();
+      const XmlPosition value_at{line_, column()};
       const std::size_t close = text_.find(quote, pos_);
       if (close == std::string_view::npos)
         fail(fmt::format("unterminated value of attribute '{}'", key));
@@ -181,6 +186,7 @@ private:
       if (e.attribute(key) != nullptr)
         fail(fmt::format("attribute '{}' given twice in <{}>", key, e.name));
       e.attributes.emplace_back(std::move(key), value);
+      e.value_positions.push_back(value_at);
     }
     // Content: child elements; text is skipped.
     for (;;) {
@@ -216,6 +222,7 @@ private:
   std::string_view text_;
   const std::string& source_;
   std::size_t pos_ = 0;
+  std::size_t line_start_ = 0; ///< offset of the first character of the current line
   int line_ = 1;
 };
 

@@ -2,8 +2,8 @@
 # A run stopped half-way and continued with --restart gives the same results as a run straight
 # through: every dataset and attribute under /steps and /mesh of results.h5 (h5diff, exact) and
 # every CSV byte for byte. Cases: an implicit contact case (crossing beams, static), a short
-# biaxial fabric (dynamic Newmark, contact, curves.csv), the explicit flying beam (stopped by
-# --stop-after and by SIGINT). Restarts go into a new folder and into the stopped run's own
+# biaxial fabric (dynamic Newmark, contact, curves.csv) with spline and with surface contact, the
+# explicit flying beam (stopped by --stop-after and by SIGINT). Restarts go into a new folder and into the stopped run's own
 # folder. A restart refuses another deck and a folder without a checkpoint (exit 2).
 # Usage: restart.sh YARNSIM REPO WORKDIR
 set -u
@@ -77,12 +77,21 @@ sed -e 's/^n_warp = .*/n_warp = 3/; s/^n_weft = .*/n_weft = 3/' \
   "$repo/examples/biaxial-k1.toml" > biaxial.toml
 restart_case biaxial biaxial.toml 4
 
-# 3. The explicit flying beam over 4 s (2000 increments, output every 50): stopped inside the
+# 3. The same weave with surface contact: its warm starts, search boxes and candidates carry over.
+sed -e 's/^n_warp = .*/n_warp = 3/; s/^n_weft = .*/n_weft = 3/' \
+  -e 's/^length_warp = .*/length_warp = 18.18182e-3/; s/^length_weft = .*/length_weft = 18.18182e-3/' \
+  -e 's/^elements_per_spacing = .*/elements_per_spacing = 2/' \
+  -e 's/^max_strain = .*/max_strain = 0.003/; s/^loading_time = .*/loading_time = 0.1/' \
+  "$repo/examples/biaxial-surface-k1.toml" > surface.toml
+grep -q '^type = "surface"' surface.toml || { echo "FAIL surface: the deck has no surface contact"; fail=1; }
+restart_case surface surface.toml 4
+
+# 4. The explicit flying beam over 4 s (2000 increments, output every 50): stopped inside the
 # explicit step, where the integrator's half-step velocities and momenta carry over.
 sed -e 's/^end_time = .*/end_time = 4.0/' "$repo/examples/flying-beam-explicit.toml" > flying.toml
 restart_case explicit flying.toml 900
 
-# 4. SIGINT at some point of the explicit run made 50 times longer (75000 increments, output
+# 5. SIGINT at some point of the explicit run made 50 times longer (75000 increments, output
 # every 250), then a restart.
 sed -e 's/^end_time = .*/end_time = 150.0/; s/^output_every = .*/output_every = 250/' \
   "$repo/examples/flying-beam-explicit.toml" > long.toml
@@ -109,7 +118,7 @@ else
   same_results "explicit, SIGINT after $part steps" straight-long restarted-long
 fi
 
-# 5. Refusals: another deck, a folder without a checkpoint.
+# 6. Refusals: another deck, a folder without a checkpoint.
 sed -e 's/^penalty = .*/penalty = 2e5/' crossing.toml > other.toml
 expect other-deck 2 run other.toml --restart part-crossing -o other -q
 grep -q "another deck" other-deck.log || { echo "FAIL other-deck: message lacks 'another deck'"; cat other-deck.log; fail=1; }

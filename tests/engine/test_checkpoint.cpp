@@ -1,14 +1,16 @@
 // Restart from a checkpoint (engine/solver/checkpoint.*, engine/output/checkpoint_file.*): a
 // simulation rebuilt from the checkpoint of any increment goes on bit for bit as the run straight
-// through, on the implicit contact path and inside an explicit step, whether the checkpoint is
-// kept in memory or read back from checkpoint.h5. And the serial writer that overlaps output
-// with the next increment (engine/output/serial_writer.*).
+// through, on the implicit contact path (spline and surface contact) and inside an explicit step,
+// whether the checkpoint is kept in memory or read back from checkpoint.h5. And the serial writer
+// that overlaps output with the next increment (engine/output/serial_writer.*).
 
 #include "engine/model/deck.hpp"
 #include "engine/output/checkpoint_file.hpp"
 #include "engine/output/serial_writer.hpp"
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"
+#include "engine/textile/biaxial.hpp"
+#include "engine/textile/weave.hpp"
 
 #include <gtest/gtest.h>
 
@@ -54,7 +56,9 @@ struct Increment {
   Eigen::Matrix3Xd x, rotation, v;
   Eigen::Matrix<double, 6, Eigen::Dynamic> reactions;
   double kinetic = 0, contact_energy = 0, external_work = 0, balance_error = 0;
-  int active = 0;
+  int active = 0, candidates = 0;
+  double max_penetration = 0, max_force = 0;
+  std::size_t points = 0; ///< active contact points
 };
 
 struct Recorder : SimulationObserver {
@@ -74,7 +78,14 @@ struct Recorder : SimulationObserver {
     i.contact_energy = e.contact;
     i.external_work = e.external_work;
     i.balance_error = e.error;
-    i.active = s.contact() ? s.contact()->active() : 0;
+    if (s.contact()) {
+      const ContactSummary c = s.contact()->summary();
+      i.active = c.active;
+      i.candidates = c.candidates;
+      i.max_penetration = c.max_penetration;
+      i.max_force = c.max_force;
+      i.points = s.contact()->points().size();
+    }
     increments.push_back(std::move(i));
     checkpoints.push_back(s.checkpoint());
   }
@@ -104,6 +115,53 @@ void expect_same_continuation(const Recorder& straight, std::size_t k, const Rec
     EXPECT_EQ(a.external_work, b.external_work);
     EXPECT_EQ(a.balance_error, b.balance_error);
     EXPECT_EQ(a.active, b.active);
+    EXPECT_EQ(a.candidates, b.candidates);
+    EXPECT_EQ(a.max_penetration, b.max_penetration);
+    EXPECT_EQ(a.max_force, b.max_force);
+    EXPECT_EQ(a.points, b.points);
+  }
+}
+
+/// The surface contact state after each increment of the restarted run equals the straight run's:
+/// the same searches (candidate versions, boxes), warm starts, candidates and pattern growth.
+void expect_same_surface_checkpoints(const Recorder& straight, std::size_t k,
+                                     const Recorder& restarted) {
+  ASSERT_EQ(restarted.checkpoints.size(), straight.checkpoints.size() - k - 1);
+  for (std::size_t j = 0; j < restarted.checkpoints.size(); ++j) {
+    SCOPED_TRACE("checkpoint after increment " + std::to_string(k + 2 + j));
+    const SimulationCheckpoint& a = straight.checkpoints[k + 1 + j];
+    const SimulationCheckpoint& b = restarted.checkpoints[j];
+    EXPECT_EQ(a.coupled_candidates, b.coupled_candidates);
+    EXPECT_EQ(a.pattern_groups, b.pattern_groups);
+    EXPECT_EQ(a.pattern_calls, b.pattern_calls);
+    ASSERT_TRUE(a.surface_contact && b.surface_contact);
+    const SurfaceContactSet::Snapshot& p = *a.surface_contact;
+    const SurfaceContactSet::Snapshot& q = *b.surface_contact;
+    EXPECT_EQ(p.candidates_version, q.candidates_version);
+    ASSERT_EQ(p.search_boxes.size(), q.search_boxes.size());
+    for (std::size_t d = 0; d < p.search_boxes.size(); ++d) {
+      ASSERT_EQ(p.search_boxes[d].size(), q.search_boxes[d].size());
+      for (std::size_t i = 0; i < p.search_boxes[d].size(); ++i)
+        EXPECT_TRUE(p.search_boxes[d][i].min() == q.search_boxes[d][i].min() &&
+                    p.search_boxes[d][i].max() == q.search_boxes[d][i].max());
+    }
+    ASSERT_EQ(p.committed.size(), q.committed.size());
+    for (std::size_t i = 0; i < p.committed.size(); ++i) {
+      EXPECT_EQ(p.committed[i].key, q.committed[i].key);
+      EXPECT_EQ(p.committed[i].zeta_A, q.committed[i].zeta_A);
+      EXPECT_EQ(p.committed[i].theta_A, q.committed[i].theta_A);
+      EXPECT_EQ(p.committed[i].zeta_B, q.committed[i].zeta_B);
+      EXPECT_EQ(p.committed[i].theta_B, q.committed[i].theta_B);
+      EXPECT_EQ(p.committed[i].active, q.committed[i].active);
+    }
+    ASSERT_EQ(p.pairs.size(), q.pairs.size());
+    for (std::size_t i = 0; i < p.pairs.size(); ++i) {
+      EXPECT_EQ(p.pairs[i].key, q.pairs[i].key);
+      EXPECT_EQ(p.pairs[i].force, q.pairs[i].force);
+      EXPECT_EQ(p.pairs[i].factor, q.pairs[i].factor);
+    }
+    EXPECT_EQ(p.summary.potential, q.summary.potential);
+    EXPECT_EQ(p.summary.min_gap, q.summary.min_gap);
   }
 }
 
@@ -156,6 +214,103 @@ TEST_F(Checkpoint, DynamicFabricThroughTheFileGoesOnBitForBit) {
   Recorder restarted;
   Simulation(m, {}, stored.simulation).run(&restarted);
   expect_same_continuation(straight, k, restarted);
+}
+
+TEST_F(Checkpoint, SurfaceContactFabricThroughTheFileGoesOnBitForBit) {
+  // A 3 x 3 plain weave with surface contact pulled dynamically (examples/biaxial-surface-k1.toml
+  // made small). A broad-phase margin of 20 um, against end displacements of 27 um, makes the
+  // yarns' motion search again during the run, so that the checkpoint's search boxes, warm starts
+  // and candidates all carry over.
+  Model m = example("biaxial-surface-k1.toml", {{"n_warp", "3"},
+                                                {"n_weft", "3"},
+                                                {"length_warp", "18.18182e-3"},
+                                                {"length_weft", "18.18182e-3"},
+                                                {"elements_per_spacing", "2"},
+                                                {"max_strain", "0.003"},
+                                                {"loading_time", "0.1"}});
+  ASSERT_EQ(m.surface_contacts.size(), 1u);
+  m.surface_contacts[0].margin = 20e-6;
+  Recorder straight;
+  Simulation(m).run(&straight);
+  ASSERT_GE(straight.increments.size(), 6u);
+  ASSERT_GT(straight.increments.back().active, 0);
+  for (const SimulationCheckpoint& c : straight.checkpoints) {
+    ASSERT_TRUE(c.surface_contact.has_value());
+    EXPECT_FALSE(c.contact.has_value());
+  }
+  // Through checkpoint.h5, from an increment after a search other than the first, with contact.
+  std::size_t k = straight.increments.size() / 2;
+  while (k + 2 < straight.increments.size() &&
+         (straight.checkpoints[k].surface_contact->candidates_version < 2 ||
+          straight.increments[k].active == 0))
+    ++k;
+  ASSERT_GE(straight.checkpoints[k].surface_contact->candidates_version, 2);
+  ASSERT_GT(straight.increments[k].active, 0);
+  ASSERT_FALSE(straight.checkpoints[k].surface_contact->committed.empty());
+  output::write_checkpoint(dir, straight.checkpoints[k], {3, {}, "x"});
+  const output::StoredCheckpoint stored = output::read_checkpoint(dir);
+  ASSERT_TRUE(stored.simulation.surface_contact.has_value());
+  {
+    // Before its first increment the restored set shows the last evaluation's figures, which an
+    // explicit step's stable-step estimate reads.
+    const Simulation resumed(m, {}, stored.simulation);
+    const ContactSummary s = resumed.contact()->summary();
+    EXPECT_EQ(s.candidates, straight.increments[k].candidates);
+    EXPECT_EQ(s.active, straight.increments[k].active);
+    EXPECT_EQ(s.max_penetration, straight.increments[k].max_penetration);
+    EXPECT_EQ(s.max_force, straight.increments[k].max_force);
+    EXPECT_EQ(resumed.contact()->points().size(), straight.increments[k].points);
+  }
+  Recorder restarted;
+  Simulation(m, {}, stored.simulation).run(&restarted);
+  expect_same_continuation(straight, k, restarted);
+  expect_same_surface_checkpoints(straight, k, restarted);
+  // In memory, from the first increment.
+  Recorder early;
+  Simulation(m, {}, straight.checkpoints[0]).run(&early);
+  expect_same_continuation(straight, 0, early);
+  expect_same_surface_checkpoints(straight, 0, early);
+  // A checkpoint without the surface contact's state does not fit the model.
+  SimulationCheckpoint stripped = straight.checkpoints[k];
+  stripped.surface_contact.reset();
+  EXPECT_THROW(Simulation(m, {}, stripped), std::invalid_argument);
+}
+
+TEST_F(Checkpoint, ExplicitSurfaceContactStepGoesOnBitForBit) {
+  // A 3 x 3 weave with surface contact pulled in 1000 mass-scaled explicit increments, output
+  // every 50; the stable step is estimated every 100 from the last contact evaluation, so a
+  // restart after an even output increment starts with an estimate from the restored figures.
+  textile::WeaveParameters p = textile::paper_fabric();
+  p.n_warp = p.n_weft = 3;
+  p.length_warp = 4 * p.spacing_weft;
+  p.length_weft = 4 * p.spacing_warp;
+  p.elements_per_spacing = 2;
+  p.contact = textile::ContactFormulation::Surface;
+  p.contact_law = {3.5e5, 1.0, 0.0};
+  textile::Fabric f = textile::build_weave(p);
+  textile::BiaxialParameters b;
+  b.type = StepType::Explicit;
+  b.explicit_.mass_scaling_dt = 5e-7;
+  b.explicit_.output_every = 50;
+  b.loading_time = 1000 * 5e-7;
+  textile::add_biaxial_test(f, b);
+  const Model& m = f.model;
+  Recorder straight;
+  Simulation(m).run(&straight);
+  ASSERT_EQ(straight.increments.size(), 20u);
+  ASSERT_GT(straight.increments.back().active, 0);
+  std::size_t k = 9; // after increment 500
+  while (k + 2 < straight.increments.size() && straight.increments[k].active == 0)
+    k += 2;
+  ASSERT_GT(straight.increments[k].active, 0);
+  ASSERT_TRUE(straight.checkpoints[k].explicit_progress.has_value());
+  ASSERT_TRUE(straight.checkpoints[k].surface_contact.has_value());
+  output::write_checkpoint(dir, straight.checkpoints[k], {k + 1, {}, "x"});
+  const output::StoredCheckpoint stored = output::read_checkpoint(dir);
+  Recorder restarted;
+  Simulation(m, {}, stored.simulation).run(&restarted);
+  expect_same_continuation(straight, k, restarted);
+  expect_same_surface_checkpoints(straight, k, restarted);
 }
 
 TEST_F(Checkpoint, ExplicitStepGoesOnBitForBitFromTheMiddle) {

@@ -175,8 +175,8 @@ TEST(TexGen, RepeatsExtendAlongAndCopyAcross) {
   expect_sound(f, "pweave.tg3 x (3, 2)");
 }
 
-TEST(TexGen, BrokenFilesAreReportedWithTheirLine) {
-  // Bad XML.
+TEST(TexGen, BrokenFilesAreReportedWithTheirLineAndColumn) {
+  // Bad XML stops the reading at its position.
   auto e = errors_of("<?xml version=\"1.0\" ?>\n<TexGenModel>\n  <Textile name=\"a\">\n"
                      "  </Textil>\n</TexGenModel>\n");
   ASSERT_EQ(e.size(), 1u);
@@ -191,28 +191,166 @@ TEST(TexGen, BrokenFilesAreReportedWithTheirLine) {
   const std::string section = "<Section type=\"CSectionEllipse\" Width=\"0.8\" Height=\"0.1\" />\n"
                               "</YarnSection>\n";
   const std::string tail = "</Yarn>\n</Textile>\n</TexGenModel>\n";
-  // A master node without a position (line 9).
+  // A master node without a position (line 10): at the element's '<'.
   e = errors_of(head + section +
                 "<MasterNode Position=\"0, 0, 0\" />\n<MasterNode Up=\"0, 0, 1\" />\n" + tail);
   ASSERT_EQ(e.size(), 1u);
-  EXPECT_EQ(e[0], "bad.tg3:10: <MasterNode> has no 'Position' attribute");
-  // A malformed vector.
+  EXPECT_EQ(e[0], "bad.tg3:10:1: <MasterNode>: missing attribute 'Position' (3 numbers \"x, y, "
+                  "z\" separated by commas)");
+  // A malformed vector: at the attribute's value.
   e = errors_of(head + section +
                 "<MasterNode Position=\"0, 0, 0\" />\n"
                 "<MasterNode Position=\"1, zero, 0\" />\n" +
                 tail);
   ASSERT_EQ(e.size(), 1u);
-  EXPECT_EQ(e[0].rfind("bad.tg3:10: <MasterNode> attribute 'Position': expected numbers", 0), 0u)
-      << e[0];
+  EXPECT_EQ(e[0], "bad.tg3:10:23: <MasterNode> attribute 'Position': expected 3 numbers \"x, y, "
+                  "z\" separated by commas, found \"1, zero, 0\"");
   // An unsupported section (line 7).
   e = errors_of(head + "<Section type=\"CSectionPolygon\" />\n</YarnSection>\n" +
                 "<MasterNode Position=\"0, 0, 0\" />\n<MasterNode Position=\"1, 0, 0\" />\n" +
                 tail);
   ASSERT_EQ(e.size(), 1u);
-  EXPECT_EQ(e[0].rfind("bad.tg3:7: section type \"CSectionPolygon\" is not supported", 0), 0u)
+  EXPECT_EQ(e[0].rfind("bad.tg3:7:16: <Section> attribute 'type': expected a supported section "
+                       "type (CSectionEllipse, ",
+                       0),
+            0u)
       << e[0];
   // A file that is not there.
   EXPECT_THROW(read_texgen(kTexGen / "missing.tg3", glass()), InputError);
+}
+
+/// Every message of `errors` equals the expected one, in order.
+void expect_messages(const std::vector<std::string>& errors,
+                     const std::vector<std::string>& expected) {
+  EXPECT_EQ(errors.size(), expected.size());
+  for (std::size_t i = 0; i < std::min(errors.size(), expected.size()); ++i)
+    EXPECT_EQ(errors[i], expected[i]) << "message " << i;
+  for (std::size_t i = expected.size(); i < errors.size(); ++i)
+    ADD_FAILURE() << "unexpected message: " << errors[i];
+}
+
+TEST(TexGen, EveryProblemOfAFileIsReportedAtOnce) {
+  // Problems in the textile's attributes, in an interpolation, a section, master nodes, a yarn
+  // with too few master nodes, an unsupported section, and a yarn read cleanly whose ends meet
+  // in the plane (found when it is built): all of them, in file order, each where it is.
+  const std::string text = R"(<?xml version="1.0" ?>
+<TexGenModel>
+  <Textile name="t" type="CTextile" NeedsBuilding="0" GeometryScale="furlong">
+    <Yarn index="0">
+      <Interpolation Periodic="maybe" type="CInterpolationBezier" />
+      <YarnSection type="CYarnSectionConstant">
+        <Section type="CSectionEllipse" Width="-0.8" Height="0.1" />
+      </YarnSection>
+      <MasterNode Position="0, 0, 0" />
+      <MasterNode Position="1, zero, 0" Up="0, 0" />
+      <MasterNode Tangent="1, 0, 0" />
+    </Yarn>
+    <Yarn index="1">
+      <YarnSection type="CYarnSectionConstant">
+        <Section type="CSectionPolygon" />
+      </YarnSection>
+      <MasterNode Position="0, 0, 0" />
+    </Yarn>
+    <Yarn index="2">
+      <YarnSection type="CYarnSectionConstant">
+        <Section type="CSectionEllipse" Width="0.8" Height="0.1" />
+      </YarnSection>
+      <MasterNode Position="0, 0, 0" />
+      <MasterNode Position="0, 0, 1" />
+    </Yarn>
+    <Yarn index="3">
+      <YarnSection type="CYarnSectionConstant">
+        <Section type="CSectionEllipse" Width="0.8" Height="0.1" />
+      </YarnSection>
+      <MasterNode Position="0, 0, 0" />
+      <MasterNode Position="5, 0, 0" />
+    </Yarn>
+  </Textile>
+</TexGenModel>
+)";
+  const std::string vector = "3 numbers \"x, y, z\" separated by commas";
+  expect_messages(
+      errors_of(text),
+      {"bad.tg3:3:70: <Textile> attribute 'GeometryScale': expected \"mm\", \"cm\", \"m\", "
+       "\"um\" or \"in\", found \"furlong\"",
+       "bad.tg3:5:32: <Interpolation> attribute 'Periodic': expected 0 or 1, found \"maybe\"",
+       "bad.tg3:7:48: <Section> attribute 'Width': expected a number > 0, found \"-0.8\"",
+       "bad.tg3:10:29: <MasterNode> attribute 'Position': expected " + vector +
+           ", found \"1, zero, 0\"",
+       "bad.tg3:10:45: <MasterNode> attribute 'Up': expected " + vector + ", found \"0, 0\"",
+       "bad.tg3:11:7: <MasterNode>: missing attribute 'Position' (" + vector + ")",
+       "bad.tg3:13:5: yarn 1: expected at least 2 <MasterNode>, found 1",
+       "bad.tg3:15:24: <Section> attribute 'type': expected a supported section type "
+       "(CSectionEllipse, CSectionLenticular, CSectionPowerEllipse, CSectionRectangle), found "
+       "\"CSectionPolygon\"",
+       "bad.tg3:19:5: yarn 2: expected the yarn's ends at different in-plane points, found both "
+       "at (0, 0) m (closed or through-thickness yarns are not supported)"});
+}
+
+TEST(TexGen, EveryProblemOfAWeavePatternIsReportedAtOnce) {
+  // A count that is not a number: the cells and yarn data are still checked one by one.
+  expect_messages(errors_of(R"(<?xml version="1.0" ?>
+<TexGenModel>
+  <Textile name="w" type="CTextileWeave2D" NumXYarns="2" NumYYarns="two" GapSize="0">
+    <PatternCell x="0" y="0">
+      <PatternElement value="0" />
+      <PatternElement value="3" />
+    </PatternCell>
+    <PatternCell x="1" y="2">
+      <PatternElement value="1" />
+    </PatternCell>
+    <XYarnData index="0" Width="4" Height="0" Spacing="5" />
+    <XYarnData index="1" Width="4" Height="0.8" Spacing="5" />
+    <YYarnData index="0" Width="4" Height="0.8" />
+  </Textile>
+</TexGenModel>
+)"),
+                  {"bad.tg3:3:69: <Textile> attribute 'NumYYarns': expected an integer in [1, "
+                   "10000], found \"two\"",
+                   "bad.tg3:6:30: <PatternElement> attribute 'value': expected 0 (Y yarn), 1 (X "
+                   "yarn) or 2 (none), found \"3\"",
+                   "bad.tg3:8:27: <PatternCell> attribute 'y': expected an integer in [0, 2) "
+                   "(NumXYarns), found \"2\"",
+                   "bad.tg3:11:44: <XYarnData> attribute 'Height': expected a number > 0, found "
+                   "\"0\"",
+                   "bad.tg3:13:5: <YYarnData>: missing attribute 'Spacing' (a number > 0)"});
+  // Cells and yarn data given twice, and what is then missing.
+  expect_messages(errors_of(R"(<?xml version="1.0" ?>
+<TexGenModel>
+  <Textile name="w" type="CTextileWeave2D" NumXYarns="1" NumYYarns="2">
+    <PatternCell x="0" y="0">
+      <PatternElement value="0" />
+      <PatternElement value="1" />
+    </PatternCell>
+    <PatternCell x="0" y="0">
+      <PatternElement value="1" />
+      <PatternElement value="0" />
+    </PatternCell>
+    <XYarnData index="0" Width="4" Height="0.8" Spacing="5" />
+    <YYarnData index="0" Width="4" Height="0.8" Spacing="5" />
+    <YYarnData index="0" Width="4" Height="0.8" Spacing="5" />
+  </Textile>
+</TexGenModel>
+)"),
+                  {"bad.tg3:3:3: expected a <YYarnData index=\"1\">, found none",
+                   "bad.tg3:3:3: expected a <PatternCell x=\"1\" y=\"0\">, found none",
+                   "bad.tg3:8:5: expected each <PatternCell> once, found x=\"0\" y=\"0\" again "
+                   "(first at line 4)",
+                   "bad.tg3:14:23: <YYarnData> attribute 'index': expected each index once, "
+                   "found 0 again"});
+  // More cells in the pattern than in the file: one problem, not one per cell.
+  expect_messages(errors_of(R"(<?xml version="1.0" ?>
+<TexGenModel>
+  <Textile name="w" type="CTextileWeave2D" NumXYarns="1" NumYYarns="10000">
+    <PatternCell x="0" y="0"><PatternElement value="1" /></PatternCell>
+    <XYarnData index="0" Width="4" Height="0.8" Spacing="5" />
+  </Textile>
+</TexGenModel>
+)"),
+                  {"bad.tg3:3:3: expected a <YYarnData> for each of the 10000 Y yarns "
+                   "(NumYYarns), found 0",
+                   "bad.tg3:3:3: expected a <PatternCell> for each of the 10000 x 1 cells "
+                   "(NumYYarns x NumXYarns), found 1"});
 }
 
 } // namespace

@@ -1,8 +1,8 @@
 // libFuzzer target: the TexGen .tg3 reader on arbitrary text (scripts/fuzz), read as written and
 // with weaves rebuilt from their pattern.
 //
-// The contract (engine/textile/texgen.hpp): bad input throws InputError with "file:line:
-// message". Besides crashes and sanitizer reports, any other exception escaping
+// The contract (engine/textile/texgen.hpp): bad input throws InputError listing every problem as
+// "file:line:col: message". Besides crashes and sanitizer reports, any other exception escaping
 // read_texgen_string is a finding.
 
 #include "engine/model/deck.hpp"
