@@ -623,9 +623,9 @@ void spline_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, doub
                     const ProjectionStart& start, const InterfaceLaw& law, SplineContactResult& out,
                     const SplineContactOptions& options, const PairRates* rates) {
   if (!fill_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
-                    options, rates)) {
+                    options, rates) &&
+      options.zero_unused_tangent)
     out.tangent.setZero();
-  }
 }
 
 SplineContactResult spline_contact(const Matrix3d& control_A, const SegmentBasis& basis_A,

@@ -38,6 +38,11 @@ struct SplineContactOptions {
   /// Iterates farther than this beyond a segment's range end the solve as OutOfRange (segments).
   double max_extension = 1.0;
   bool compute_tangent = true; ///< false: residual only (explicit dynamics)
+  /// false: a tangent that is not computed (inactive pair, or compute_tangent false) is left as
+  /// it was instead of zeroed, for callers that read it only where it was computed: it saves
+  /// writing 2.6 KB per open pair, which made the narrow phase of a large weave memory-bound
+  /// (docs/performance.md).
+  bool zero_unused_tangent = true;
 };
 
 /// Control-point velocities, for normal damping only. The penetration rate is

@@ -108,6 +108,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
   const Eigen::Matrix3Xd& x = state.x;
   contact::SplineContactOptions options;
   options.compute_tangent = want_tangent;
+  options.zero_unused_tangent = false; // assemble() reads the tangents of active pairs only
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, work_.size(), 16),
       [&](const tbb::blocked_range<std::size_t>& range) {

@@ -1214,12 +1214,13 @@ private:
                                          : std::vector<int>{};
       if (chain.size() >= 3 && chain_checkable())
         s.elements = surface_elements(t, chain);
-      // Semi-axes: the keys, else the section of the surface's elements.
+      // Semi-axes: the keys, else the section of the surface's elements. An element whose
+      // section did not resolve (reported where it is named) holds a placeholder index, which
+      // may not even exist: used_sections_ has the resolved index per element, or -1.
+      const int section_index =
+          s.elements.empty() ? -1 : used_sections_[static_cast<std::size_t>(s.elements.front())];
       const Section* section =
-          s.elements.empty()
-              ? nullptr
-              : &model_.sections[static_cast<std::size_t>(
-                    model_.elements[static_cast<std::size_t>(s.elements.front())].section)];
+          section_index < 0 ? nullptr : &model_.sections[static_cast<std::size_t>(section_index)];
       const bool shaped = section != nullptr && section->shape != SectionShape::General;
       for (std::string_view key : {"a", "b"}) {
         if (t.present(key) || section == nullptr || shaped)

@@ -282,7 +282,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     // The iteration's task graph: broad phase -> (narrow phase || beam assembly) -> contact
     // assembly.
     iteration_ = {&residual, damping, {}, 0.0, 0.0};
+    const auto graph_start = std::chrono::steady_clock::now();
     graph_->run();
+    stage_times_.iteration_graph +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - graph_start).count();
     if (!iteration_.veto.empty())
       return iteration_.veto;
     double ref_force = iteration_.ref_force, ref_moment = iteration_.ref_moment;

@@ -68,6 +68,10 @@ struct StageTimes {
   double convergence_check = 0; ///< norms, and the symbolic analysis when the pattern changed
   double factorisation = 0;
   double solve = 0;
+  /// The iteration's task graph from start to join (broad phase, narrow phase beside the beam
+  /// assembly, contact assembly): the wall time of its parallel part, within which the stages
+  /// above overlap on several threads.
+  double iteration_graph = 0;
 };
 
 /// Energies of the last completed increment, J. The work of prescribed motions (reactions) and

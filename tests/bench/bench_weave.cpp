@@ -1,23 +1,27 @@
 // Whole-model benchmarks on the paper's fabric and on n x n plain weaves of it:
 //   BM_NewtonIterationWeave/<n>/<threads>/<solver>: wall time per Newton iteration and the time
-//     of each stage per iteration, on the biaxial k = 1 test (dynamic, as the paper's) from its
-//     first increments: one warm-up increment (dt = 0.02 s: the contact candidates, the matrix
-//     pattern and its symbolic analysis settle), then kTimedIncrements increments of 0.02 s are
-//     timed (11-13 Newton iterations in all). The contacts are then closing (n = 12: 16 of 144
-//     crossings at 0.02 s, 48 at 0.06 s, all from 0.2 s): the pattern, the broad and the narrow
-//     phase already cover every candidate pair; only the contact assembly grows as more close.
-//     Reaching closed contacts first would cost ten increments more, too many at n = 96. Per
-//     iteration:
+//     of each stage per iteration, on the biaxial k = 1 test (dynamic, as the paper's) at the
+//     start of the loading: one warm-up increment of 1 ms (the contact candidates, the matrix
+//     pattern and its symbolic analysis settle), then kTimedIncrements increments of 1 ms are
+//     timed (2-4 Newton iterations each). Every candidate pair of the weave is in the pattern and
+//     in the broad and narrow phase from the first iteration; the crossings are still open there
+//     (spline clearance 0.099 mm), so the contact assembly adds few pairs. Later in the toe, where
+//     the crossings close (t = 5 to 10 ms at n = 24), weaves of 16 x 16 and more need many Newton
+//     iterations or smaller increments (docs/performance.md): a window there would time the
+//     iterations of a struggling Newton, not the cost of one. Per iteration:
 //       iteration_ms  wall time of the timed increments / their Newton iterations (each increment
 //                     also assembles once more to confirm convergence; that is counted too);
 //       broad_ms, narrow_ms, beam_assembly_ms, other_assembly_ms (zeroing, contact, inertia,
 //       loads), assembly_ms (beam + other), factorisation_ms, solve_ms, check_ms (norms): stage
 //       times summed over the iterations / the iterations. The narrow phase runs beside the beam
-//       assembly, so on two threads the stages add up to more than the wall time.
+//       assembly, so on two threads the stages add up to more than the wall time;
+//       graph_ms       wall time of the iteration's task graph (broad phase to contact assembly),
+//                     the part that runs in parallel: its 1-over-2-thread ratio is the speed-up
+//                     of assembly with contact.
 //     scripts/bench fits the growth exponents against the DOF (scripts/bench_report.py).
 //   BM_PaperCaseK1/<threads>/<solver>: wall time of the paper's k = 1 spline case to 1.5 % strain.
 // <solver>: 0 the default ('auto', here SimplicialLDLT of the symmetric part), 1 CHOLMOD
-// supernodal LL^T ('cholmod').
+// supernodal LL^T ('cholmod'), 2 UMFPACK LU ('lu').
 #include "engine/solver/simulation.hpp"
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/weave.hpp"
@@ -30,13 +34,15 @@
 namespace yarnsim {
 namespace {
 
-constexpr double kWarmUpEnd = 0.2; ///< s, end of the two coarse increments
-constexpr double kTimedDt = 0.02;  ///< s, the biaxial test's largest increment
+constexpr double kWarmUpEnd = 1e-3; ///< s, end of the warm-up increment
+constexpr double kTimedDt = 1e-3;   ///< s, each timed increment
 constexpr int kTimedIncrements = 3;
 
 SimulationOptions solver_option(std::int64_t code) {
   SimulationOptions o;
-  o.linear_solver = code == 1 ? LinearSolverKind::Cholmod : LinearSolverKind::Auto;
+  o.linear_solver = code == 1   ? LinearSolverKind::Cholmod
+                    : code == 2 ? LinearSolverKind::LU
+                                : LinearSolverKind::Auto;
   return o;
 }
 
@@ -113,12 +119,13 @@ void BM_NewtonIterationWeave(benchmark::State& state) {
   state.counters["other_assembly_ms"] = k * (t1.other_assembly - t0.other_assembly);
   state.counters["assembly_ms"] =
       k * (t1.beam_assembly - t0.beam_assembly + t1.other_assembly - t0.other_assembly);
+  state.counters["graph_ms"] = k * (t1.iteration_graph - t0.iteration_graph);
   state.counters["factorisation_ms"] = k * (t1.factorisation - t0.factorisation);
   state.counters["solve_ms"] = k * (t1.solve - t0.solve);
   state.counters["check_ms"] = k * (t1.convergence_check - t0.convergence_check);
 }
 BENCHMARK(BM_NewtonIterationWeave)
-    ->ArgsProduct({{6, 12, 24, 48, 96}, {1, 2}, {0, 1}})
+    ->ArgsProduct({{6, 12, 24, 48, 96}, {1, 2}, {0, 1, 2}})
     ->Unit(benchmark::kSecond)
     ->Iterations(1)
     ->UseRealTime();

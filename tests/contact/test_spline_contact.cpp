@@ -807,5 +807,41 @@ TEST(SplineContact, ResidualOnlyOptionSkipsTheTangent) {
   EXPECT_EQ(lean.tangent.norm(), 0.0);
 }
 
+TEST(SplineContact, KeptTangentIsLeftAloneOnlyWhereNotComputed) {
+  // zero_unused_tangent = false (what the engine's contact set uses): the tangent of an open pair
+  // keeps what the result held; an active pair's tangent is written whole, the same bits as with
+  // the default.
+  std::mt19937 rng(11);
+  const LinearPenalty law(kEps);
+  SplineContactOptions keep;
+  keep.zero_unused_tangent = false;
+  Pair closed, open;
+  do {
+    closed = random_crossing(rng);
+  } while (!place(closed, 0.1, -0.2, 5e-6));
+  do {
+    open = random_crossing(rng);
+  } while (!place(open, 0.0, 0.0, -5e-6));
+  const SplineContactResult reference = solve(closed, law);
+  ASSERT_TRUE(reference.active);
+
+  SplineContactResult out;
+  out.tangent.setConstant(7.0); // what an earlier evaluation of this result left
+  spline_contact(open.xa, *open.ba, open.ra, open.xb, *open.bb, open.rb, {}, law, out, keep);
+  EXPECT_FALSE(out.active);
+  EXPECT_EQ(out.residual.norm(), 0.0);
+  EXPECT_EQ((out.tangent.array() - 7.0).abs().maxCoeff(), 0.0);
+
+  spline_contact(closed.xa, *closed.ba, closed.ra, closed.xb, *closed.bb, closed.rb, {}, law, out,
+                 keep);
+  EXPECT_TRUE(out.active);
+  EXPECT_EQ((out.tangent - reference.tangent).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ((out.residual - reference.residual).cwiseAbs().maxCoeff(), 0.0);
+
+  // The default zeroes what it does not compute.
+  spline_contact(open.xa, *open.ba, open.ra, open.xb, *open.bb, open.rb, {}, law, out, {});
+  EXPECT_EQ(out.tangent.norm(), 0.0);
+}
+
 } // namespace
 } // namespace yarnsim::contact

@@ -861,6 +861,28 @@ TEST(DeckSurfaces, AllSurfaceErrorsAreReportedAtOnce) {
       << joined(errors);
 }
 
+TEST(DeckSurfaces, SurfaceOnElementsOfAnUnknownSectionIsReportedNotRead) {
+  // Found by fuzzing: with no [[sections]] at all, an element whose section does not resolve
+  // holds a placeholder index into an empty list, and a surface on it read its semi-axes there.
+  std::ifstream in(kExamples / "crossing-ellipses.toml");
+  std::string deck((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string section = "[[sections]]\nname = \"flat-rod\"\n";
+  ASSERT_NE(deck.find(section), std::string::npos);
+  deck = replace(deck, section, "[[unused]]\nname = \"flat-rod\"\n");
+  const auto errors = errors_of(deck);
+  const std::string all = joined(errors);
+  ASSERT_EQ(errors.size(), 3u) << all;
+  EXPECT_NE(errors[0].find("unused: unknown key 'unused' in the top level of the deck"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(errors[1].find("lines[0].section: no section named 'flat-rod' (the deck has no "
+                           "[[sections]])"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(errors[2].find("lines[1].section: no section named 'flat-rod'"), std::string::npos)
+      << all;
+}
+
 TEST(DeckSplines, AllSplineAndContactErrorsAreReportedAtOnce) {
   std::string deck = replace(kSplines, "radius = 0.02", "radius = -1.0");
   deck = replace(deck, "nodes = [10, 9, 8]", "nodes = [10, 9]");
