@@ -101,18 +101,6 @@ double half_squared_distance(const Matrix3d& xa, const SegmentBasis& ba, const M
   return 0.5 * (xa * ba.values_local(ua) - xb * bb.values_local(ub)).squaredNorm();
 }
 
-/// Whether a full Newton step of `length` ends the iteration: it is below the tolerance, or,
-/// in the quadratic regime after a previous short step, the step after it would be
-/// (|s_k+1| ~ |s_k|^3 / |s_k-1|^2, the constant of quadratic convergence estimated from the
-/// last two steps). Saves the last, confirming iteration.
-bool converges(double length, double previous, double tolerance) {
-  if (length <= tolerance) {
-    return true;
-  }
-  return previous > 0.0 && length < 1e-2 * previous &&
-         length * length * length <= tolerance * previous * previous;
-}
-
 struct Solve {
   bool converged = false;
   bool left = false; // an iterate went beyond the segment's neighbourhood
@@ -211,7 +199,7 @@ Solve newton_pair(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb
       step = -(vmax.dot(e.r) / modified(lmax)) * vmax - (vmin.dot(e.r) / modified(lmin)) * vmin;
     }
     double length = step.norm();
-    if (definite && converges(length, previous, opt.step_tolerance)) {
+    if (definite && newton_step_converges(length, previous, opt.step_tolerance)) {
       s.converged = true;
       s.ua = ua + step(0);
       s.ub = ub + step(1);
@@ -275,7 +263,7 @@ Solve project_point(const Vector3d& p, const Matrix3d& x, const SegmentBasis& b,
     }
     const bool definite = h > kDefinite * scale;
     double step = -r / (definite ? h : kShift * scale + std::abs(h));
-    if (definite && converges(std::abs(step), previous, opt.step_tolerance)) {
+    if (definite && newton_step_converges(std::abs(step), previous, opt.step_tolerance)) {
       s.converged = true;
       s.ua = u + step;
       return s;

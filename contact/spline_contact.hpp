@@ -19,6 +19,18 @@ enum class ProjectionStatus {
                 ///< segment from the warm start: the caller vetoes the step
 };
 
+/// Whether a full Newton step of `length` ends a projection's iteration (spline and surface
+/// contact): it is below the tolerance, or, in the quadratic regime after a previous full step,
+/// the step after it would be (|s_k+1| ~ |s_k|^3 / |s_k-1|^2, the constant of quadratic
+/// convergence estimated from the last two steps). Saves the last, confirming iteration.
+/// length, previous (0 when there is none), tolerance: in the problem's coordinates.
+inline bool newton_step_converges(double length, double previous, double tolerance) {
+  if (length <= tolerance)
+    return true;
+  return previous > 0.0 && length < 1e-2 * previous &&
+         length * length * length <= tolerance * previous * previous;
+}
+
 /// Starting point of the LCP: the pair's last solution (`warm`), or the segments' midpoints.
 struct ProjectionStart {
   double xi_A = 0.0; ///< global parameter on curve A

@@ -217,18 +217,6 @@ void equations(const PairPoint& e, const Mode& mode, double length, Vec4& f, Vec
   }
 }
 
-/// Whether a full Newton step of `length` ends the iteration: it is below the tolerance, or,
-/// in the quadratic regime after a previous full step, the step after it would be
-/// (|s_k+1| ~ |s_k|^3 / |s_k-1|^2, the constant of quadratic convergence estimated from the last
-/// two steps). Saves the last, confirming iteration.
-bool converges(double length, double previous, double tolerance) {
-  if (length <= tolerance) {
-    return true;
-  }
-  return previous > 0.0 && length < 1e-2 * previous &&
-         length * length * length <= tolerance * previous * previous;
-}
-
 struct Solve {
   bool converged = false;
   bool left = false; // an iterate went beyond the elements' extension
@@ -257,7 +245,7 @@ Solve newton(const Cylinder& A, const Cylinder& B, Vec4 c, const Mode& mode,
       break;
     }
     const double size = step.cwiseAbs().maxCoeff();
-    if (converges(size, previous, opt.step_tolerance)) {
+    if (newton_step_converges(size, previous, opt.step_tolerance)) {
       c += step;
       c(1) = wrap(c(1));
       c(3) = wrap(c(3));

@@ -25,13 +25,9 @@ using namespace deck;
 // Schema: the keys of every block. To add a block: declare its keys and TableSpec here, add a
 // row to kDeckKeys, and a DeckBuilder method that turns its checked tables into the Model.
 
-constexpr Range kPoisson{-1, 0.5, true, false};
-constexpr Range kNewmarkBeta{0, 0.5, true, false};
-constexpr Range kNewmarkGamma{0.5, 1, false, false};
 constexpr Range kShearFactor{0, 1, true, false};
 constexpr Range kExponent{1, kInf, true, false};
 constexpr Range kElementCount{1, 1e7, false, false};
-constexpr Range kIterations{1, 1000, false, false};
 constexpr Range kSafetyFactor{0, 1, true, false};
 
 constexpr KeySpec kMaterialKeys[] = {

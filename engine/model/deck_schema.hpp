@@ -83,6 +83,11 @@ inline constexpr Range kAnyValue{};
 inline constexpr Range kPositive{0, kInf, true, false};
 inline constexpr Range kNonNegative{0, kInf, false, false};
 inline constexpr Range kAtLeastOne{1, kInf, false, false};
+// Ranges of quantities that both the model deck and the fabric deck read.
+inline constexpr Range kPoisson{-1, 0.5, true, false};      ///< Poisson's ratio, in (-1, 0.5]
+inline constexpr Range kNewmarkBeta{0, 0.5, true, false};   ///< Newmark beta, in (0, 0.5]
+inline constexpr Range kNewmarkGamma{0.5, 1, false, false}; ///< Newmark gamma, in [0.5, 1]
+inline constexpr Range kIterations{1, 1000, false, false};  ///< Newton iterations per increment
 
 enum Need : bool { kOptional = false, kRequired = true };
 

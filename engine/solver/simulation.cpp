@@ -172,8 +172,8 @@ void Simulation::apply_prescribed(double t_new) {
 
 /// The stages of one Newton iteration as a oneTBB flow graph, built once per simulation:
 ///
-///   broad phase (+ pattern growth, zeroing) --> narrow phase ----\
-///                                           \-> beam assembly ---+--> contact assembly
+///   broad phase (+ pattern growth, zeroing) --> narrow phase ----+
+///                                           +-> beam assembly ---+--> contact assembly
 ///
 /// The narrow phase and the beam assembly touch disjoint data, so they run side by side, each
 /// with parallel loops inside; the contact assembly waits for both and adds the pairs in sorted

@@ -229,7 +229,7 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
         RunSummary s = run_model(model, run);
         const double k = model.biaxial->strain_ratio;
         const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
-        done.push_back({&c, taken, folder, label, k, std::move(s), std::move(model), scaling});
+        done.push_back({&c, taken, folder, label, k, std::move(s), std::move(model), scaling, {}});
         ++outcome.completed;
       } catch (const Interrupted&) {
         throw;

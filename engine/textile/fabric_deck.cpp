@@ -16,12 +16,8 @@ using namespace deck;
 // ---------------------------------------------------------------------------------------------
 // Schema of the fabric deck (docs/input.md, "Fabric decks").
 
-constexpr Range kPoisson{-1, 0.5, true, false};
 constexpr Range kUnitOpen{0, 1, true, true};
 constexpr Range kUnitHalfOpen{0, 1, true, false};
-constexpr Range kNewmarkBeta{0, 0.5, true, false};
-constexpr Range kNewmarkGamma{0.5, 1, false, false};
-constexpr Range kIterations{1, 1000, false, false};
 constexpr Range kElements{1, 1000, false, false};
 constexpr Range kYarnCount{1, 10000, false, false};
 

@@ -305,7 +305,7 @@ TEST_F(Checkpoint, ExplicitSurfaceContactStepGoesOnBitForBit) {
   ASSERT_GT(straight.increments[k].active, 0);
   ASSERT_TRUE(straight.checkpoints[k].explicit_progress.has_value());
   ASSERT_TRUE(straight.checkpoints[k].surface_contact.has_value());
-  output::write_checkpoint(dir, straight.checkpoints[k], {k + 1, {}, "x"});
+  output::write_checkpoint(dir, straight.checkpoints[k], {static_cast<int>(k + 1), {}, "x"});
   const output::StoredCheckpoint stored = output::read_checkpoint(dir);
   Recorder restarted;
   Simulation(m, {}, stored.simulation).run(&restarted);
