@@ -6,6 +6,7 @@
 #include "engine/output/serial_writer.hpp"
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"
+#include "engine/textile/biaxial.hpp"
 #include "yarnsim/version.hpp"
 
 #include <chrono>
@@ -147,10 +148,8 @@ private:
   std::vector<CsvFile> files_;
 };
 
-/// The force-strain curves of a biaxial test (paper §5, Fig. 3): per increment the mean strain
-/// of the warp and of the weft yarns (change of the in-plane distance between a yarn's two ends
-/// over its in-plane length) and the total reaction along each direction, positive in tension
-/// (the mean of the pull at a yarn's two ends), then the force of every yarn.
+/// The force-strain curves of a biaxial test (paper §5, Fig. 3) in curves.csv: per increment
+/// the reading of the test (textile::read_biaxial), then the force of every yarn.
 class BiaxialCurves {
 public:
   explicit BiaxialCurves(const Model& model) : model_(model), test_(*model.biaxial) {
@@ -166,27 +165,10 @@ public:
   /// Strains and forces of the last converged increment: strain_warp, strain_weft, force_warp,
   /// force_weft, then per yarn.
   std::vector<double> values(const Simulation& sim) const {
-    std::vector<double> yarn_forces;
-    double strain[2] = {0, 0}, force[2] = {0, 0};
-    for (int dir = 0; dir < 2; ++dir) {
-      const auto& starts = dir == 0 ? test_.warp_start : test_.weft_start;
-      const auto& ends = dir == 0 ? test_.warp_end : test_.weft_end;
-      const double length = dir == 0 ? test_.length_warp : test_.length_weft;
-      for (std::size_t i = 0; i < starts.size(); ++i) {
-        const int a = model_.node_sets[starts[i]].nodes.front();
-        const int b = model_.node_sets[ends[i]].nodes.front();
-        const Eigen::Vector2d d0 = (model_.nodes[b] - model_.nodes[a]).head<2>();
-        const Eigen::Vector2d d = (sim.state().x_n.col(b) - sim.state().x_n.col(a)).head<2>();
-        strain[dir] += (d.norm() - d0.norm()) / length / starts.size();
-        const Eigen::Vector3d axis(d0.x() / d0.norm(), d0.y() / d0.norm(), 0.0);
-        const double f = 0.5 * (sim.reactions().col(b).head<3>().dot(axis) -
-                                sim.reactions().col(a).head<3>().dot(axis));
-        force[dir] += f;
-        yarn_forces.push_back(f);
-      }
-    }
-    std::vector<double> out{strain[0], strain[1], force[0], force[1]};
-    out.insert(out.end(), yarn_forces.begin(), yarn_forces.end());
+    const textile::BiaxialReading r =
+        textile::read_biaxial(model_, sim.state().x_n, sim.reactions());
+    std::vector<double> out{r.strain_warp, r.strain_weft, r.force_warp, r.force_weft};
+    out.insert(out.end(), r.yarn_forces.begin(), r.yarn_forces.end());
     return out;
   }
 

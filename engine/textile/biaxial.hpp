@@ -5,6 +5,7 @@
 #include "engine/textile/fabric.hpp"
 
 #include <utility>
+#include <vector>
 
 namespace yarnsim::textile {
 
@@ -68,5 +69,21 @@ std::pair<double, double> biaxial_strains(double strain_ratio, double max_strain
 /// parameters, a fabric without warp or weft yarns, or missing yarn node sets (finish_fabric adds
 /// them).
 void add_biaxial_test(Fabric& fabric, const BiaxialParameters& parameters);
+
+/// One point of a biaxial test's force-strain curves (paper §5, Fig. 3).
+struct BiaxialReading {
+  /// Mean strain of the warp (weft) yarns: change of the in-plane distance between a yarn's two
+  /// end nodes over the test's in-plane length, -.
+  double strain_warp = 0, strain_weft = 0;
+  /// Total force along each direction, positive in tension: per yarn the mean of the pulls at its
+  /// two ends along its reference in-plane end-to-end direction, summed over the yarns, N.
+  double force_warp = 0, force_weft = 0;
+  std::vector<double> yarn_forces; ///< per yarn, warp yarns then weft yarns, N
+};
+
+/// The reading of model.biaxial (which must be set) at positions x (3 x n_nodes, m) with the
+/// reactions at the prescribed DOFs (6 x n_nodes, forces first, N).
+BiaxialReading read_biaxial(const Model& model, const Eigen::Matrix3Xd& x,
+                            const Eigen::Matrix<double, 6, Eigen::Dynamic>& reactions);
 
 } // namespace yarnsim::textile

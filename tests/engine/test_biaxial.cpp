@@ -31,26 +31,11 @@ struct CurveRecorder : SimulationObserver {
   const Model& m;
   explicit CurveRecorder(const Model& model) : m(model) {}
   void on_increment(const Simulation& sim, const IncrementReport&) override {
-    const BiaxialTest& b = *m.biaxial;
-    double s[2] = {0, 0}, f[2] = {0, 0};
-    for (int dir = 0; dir < 2; ++dir) {
-      const auto& starts = dir == 0 ? b.warp_start : b.weft_start;
-      const auto& ends = dir == 0 ? b.warp_end : b.weft_end;
-      for (std::size_t i = 0; i < starts.size(); ++i) {
-        const int a = m.node_sets[starts[i]].nodes.front(), e = m.node_sets[ends[i]].nodes.front();
-        const Eigen::Vector2d d0 = (m.nodes[e] - m.nodes[a]).head<2>();
-        const Eigen::Vector2d d = (sim.state().x_n.col(e) - sim.state().x_n.col(a)).head<2>();
-        s[dir] +=
-            (d.norm() - d0.norm()) / (dir == 0 ? b.length_warp : b.length_weft) / starts.size();
-        const Eigen::Vector3d axis(d0.x() / d0.norm(), d0.y() / d0.norm(), 0);
-        f[dir] += 0.5 * (sim.reactions().col(e).head<3>().dot(axis) -
-                         sim.reactions().col(a).head<3>().dot(axis));
-      }
-    }
-    c.strain_warp.push_back(s[0]);
-    c.strain_weft.push_back(s[1]);
-    c.force_warp.push_back(f[0]);
-    c.force_weft.push_back(f[1]);
+    const textile::BiaxialReading r = textile::read_biaxial(m, sim.state().x_n, sim.reactions());
+    c.strain_warp.push_back(r.strain_warp);
+    c.strain_weft.push_back(r.strain_weft);
+    c.force_warp.push_back(r.force_warp);
+    c.force_weft.push_back(r.force_weft);
     const EnergyBalance e = sim.energy_balance();
     c.energy_ratio.push_back(e.kinetic / (e.internal + e.contact));
   }
