@@ -109,6 +109,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
   contact::SplineContactOptions options;
   options.compute_tangent = want_tangent;
   options.zero_unused_tangent = false; // assemble() reads the tangents of active pairs only
+  tangents_computed_ = want_tangent;
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, work_.size(), 16),
       [&](const tbb::blocked_range<std::size_t>& range) {
@@ -167,6 +168,11 @@ std::vector<ContactCoupling> SplineContactSet::couplings() const {
 
 void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
                                 bool want_tangent) const {
+  // Tangents are left as they were where they were not computed (project), so a tangent asked
+  // for here must come from a projection that computed it.
+  if (want_tangent && !tangents_computed_)
+    throw std::logic_error("SplineContactSet::assemble: tangents asked for after a projection "
+                           "without tangents");
   for (const Work& item : work_) {
     if (!item.result.active)
       continue;

@@ -86,6 +86,8 @@ private:
   std::vector<contact::SplineCurve> curves_; ///< per spline
   std::vector<std::unique_ptr<Definition>> definitions_;
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
+  /// Whether the last projection computed the active pairs' tangents (assemble reads them).
+  bool tangents_computed_ = false;
   struct Committed {
     double xi_A, xi_B;
     bool active;
