@@ -96,6 +96,11 @@ struct SplineContactResult {
   /// Owned by this pair (Converged or Jumped) with p > 0. Only then are residual and tangent
   /// non-zero.
   bool active = false;
+  /// All-angle contact (line_contact.hpp) only: whether the point contact was evaluated (the
+  /// chords not nearly parallel), its share s, and the line part's Gauss points in contact.
+  bool point_evaluated = true;
+  double point_share = 1.0;
+  int line_points = 0;
   /// Contact contribution to the internal force vector: dU/dx = -f d|g|/dx, N. Added to the
   /// internal forces; for A it is -f N_k(xi_A) n at control point k (the contact pushes A along
   /// +n).

@@ -1,10 +1,13 @@
 #include "engine/contact/spline_contact_set.hpp"
 
+#include "contact/line_contact.hpp"
 #include "engine/assembly/assembler.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fmt/format.h>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -21,6 +24,9 @@ struct SplineContactSet::Definition {
   std::shared_ptr<const contact::InterfaceLaw> law;
   std::vector<Eigen::AlignedBox3d> boxes;
   std::vector<Eigen::AlignedBox3d> searched; ///< boxes of the last search (for a restart)
+  bool line_contact = true;                  ///< all-angle contact, or point contact alone
+  contact::AllAngleOptions all_angle;        ///< line_scale set per pair
+  double line_per_point = 0; ///< line_penalty / penalty, 1/m; 0: 1 / (r_A + r_B) per pair
 };
 
 std::shared_ptr<const contact::InterfaceLaw> make_interface_law(const InterfaceLawParameters& p) {
@@ -60,6 +66,12 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
     options.self_contact = def.self_contact;
     d->search = std::make_unique<broadphase::CandidateSearch>(std::move(info), groups, options);
     d->law = make_interface_law(def.law);
+    d->line_contact = def.line_contact;
+    const double degree = std::numbers::pi / 180;
+    d->all_angle.line_sine = std::sin(def.line_angle * degree);
+    d->all_angle.point_sine = std::sin(def.point_angle * degree);
+    d->all_angle.gauss_points = def.gauss_points;
+    d->line_per_point = def.line_penalty > 0 ? def.line_penalty / def.law.penalty : 0.0;
     d->boxes.resize(d->spline.size());
     definitions_.push_back(std::move(d));
   }
@@ -128,10 +140,18 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
             start = {it->second.xi_A, it->second.xi_B, true};
           const auto& ca = curves_[d.spline[item.pair.first]];
           const auto& cb = curves_[d.spline[item.pair.second]];
-          contact::spline_contact(A, ca.segment(d.segment[item.pair.first]),
-                                  d.radius[item.pair.first], B,
-                                  cb.segment(d.segment[item.pair.second]),
-                                  d.radius[item.pair.second], start, *d.law, item.result, options);
+          const double ra = d.radius[item.pair.first], rb = d.radius[item.pair.second];
+          const auto& sa = ca.segment(d.segment[item.pair.first]);
+          const auto& sb = cb.segment(d.segment[item.pair.second]);
+          if (d.line_contact) {
+            // The first segment of a pair is the line contact's slave.
+            contact::AllAngleOptions all_angle = d.all_angle;
+            all_angle.line_scale = d.line_per_point > 0 ? d.line_per_point : 1.0 / (ra + rb);
+            contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle, item.result,
+                                       options);
+          } else {
+            contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options);
+          }
         }
       });
 
@@ -189,7 +209,8 @@ void SplineContactSet::commit() {
   std::map<Key, Committed> next;
   for (const Work& item : work_) {
     const auto& r = item.result;
-    if (r.status == contact::ProjectionStatus::NotConverged)
+    // A point contact that was not evaluated (nearly parallel chords) leaves no warm start.
+    if (r.status == contact::ProjectionStatus::NotConverged || !r.point_evaluated)
       continue;
     next[Key{item.definition, item.pair.first, item.pair.second}] = {r.xi_A, r.xi_B, r.active};
   }

@@ -188,6 +188,10 @@ constexpr KeySpec kSurfaceKeys[] = {
 };
 constexpr TableSpec kSurface{"[[surfaces]]", kSurfaceKeys};
 
+/// Angles of the all-angle spline contact, degrees, and its Gauss points per segment.
+constexpr Range kContactAngle{0, 90, true, false};
+constexpr Range kGaussPoints{1, 10, false, false};
+
 constexpr KeySpec kContactKeys[] = {
     {"name", Type::String, kRequired},
     {"type", Type::String, kRequired},
@@ -200,6 +204,11 @@ constexpr KeySpec kContactKeys[] = {
     {"damping", Type::Number, kOptional, kNonNegative},
     {"self_contact", Type::Boolean},
     {"margin", Type::Number, kOptional, kNonNegative},
+    {"line_contact", Type::Boolean},
+    {"line_angle", Type::Number, kOptional, kContactAngle},
+    {"point_angle", Type::Number, kOptional, kContactAngle},
+    {"line_penalty", Type::Number, kOptional, kPositive},
+    {"gauss_points", Type::Integer, kOptional, kGaussPoints},
 };
 constexpr TableSpec kContact{"[[contacts]]", kContactKeys};
 
@@ -1488,6 +1497,10 @@ private:
         contact_law(t, c.law);
         if (t.present("self_contact"))
           t.error("self_contact", "'self_contact' applies only to type = \"spline\"");
+        for (const char* key :
+             {"line_contact", "line_angle", "point_angle", "line_penalty", "gauss_points"})
+          if (t.present(key))
+            t.error(key, fmt::format("'{}' applies only to type = \"spline\"", key));
         c.margin = t.number("margin").value_or(0);
         model_.surface_contacts.push_back(std::move(c));
         continue;
@@ -1498,6 +1511,19 @@ private:
       contact_law(t, c.law);
       c.self_contact = t.boolean("self_contact").value_or(false);
       c.margin = t.number("margin").value_or(0);
+      c.line_contact = t.boolean("line_contact").value_or(true);
+      c.line_angle = t.number("line_angle").value_or(c.line_angle);
+      c.point_angle = t.number("point_angle").value_or(c.point_angle);
+      c.line_penalty = t.number("line_penalty").value_or(0);
+      c.gauss_points = static_cast<int>(t.integer("gauss_points").value_or(c.gauss_points));
+      if (!(c.line_angle < c.point_angle))
+        t.error(t.present("point_angle") ? "point_angle" : "line_angle",
+                fmt::format("expected line_angle < point_angle (degrees), found {} and {}",
+                            c.line_angle, c.point_angle));
+      if (!c.line_contact)
+        for (const char* key : {"line_angle", "point_angle", "line_penalty", "gauss_points"})
+          if (t.present(key))
+            t.error(key, fmt::format("'{}' applies only with line_contact = true", key));
       model_.spline_contacts.push_back(std::move(c));
     }
   }

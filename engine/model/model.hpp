@@ -152,6 +152,16 @@ struct SplineContactDefinition {
   InterfaceLawParameters law;
   bool self_contact = false; ///< pairs within one spline (beyond its neighbours)
   double margin = 0;         ///< m, broad-phase box inflation beyond the radius; 0: the radius
+  /// All-angle contact (contact/line_contact.hpp): line contact below line_angle, point contact
+  /// above point_angle, blended between; false: point contact at every angle (with its
+  /// degenerate near-parallel path).
+  bool line_contact = true;
+  double line_angle = 10;  ///< degrees, in (0, point_angle)
+  double point_angle = 20; ///< degrees, in (line_angle, 90]
+  /// N/m^2 for the linear law (the law per unit length is the law times line_penalty /
+  /// penalty); 0: penalty / (r_A + r_B)
+  double line_penalty = 0;
+  int gauss_points = 5; ///< per slave segment, 1 to 10
 };
 
 /// A contact surface for the surface-to-surface contact (formulation.md §6, the paper's eqs. 1-3):

@@ -1,0 +1,384 @@
+#include "contact/line_contact.hpp"
+
+#include "contact/second_order_jet.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+// Derivatives. A Gauss point's projection v(x) onto B and the closest points (u_A, u_B)(x) of
+// the point contact are implicit functions of the positions x. Their first and second
+// derivatives at x0 are those of two Newton steps started at the converged value c0 = c(x0)
+// (held fixed) and carried out on second-order jets of x: with e_k the error after k steps,
+// e_0 = O(|dx|), e_1 = O(e_0^2), e_2 = O(|dx|^4), so the two-step map agrees with c(x) to second
+// order at x0 (to the projection's tolerance). Everything after that is explicit.
+
+namespace yarnsim::contact {
+
+namespace {
+
+using Vec18 = Eigen::Matrix<double, 18, 1>;
+using Mat18 = Eigen::Matrix<double, 18, 18>;
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+/// Half-width of the band around an interior knot (segments) in which ownership is decided by
+/// the knot test (as in spline_contact.cpp).
+constexpr double kKnotBand = 1e-8;
+constexpr int kMaxGauss = 10;
+
+/// Gauss-Legendre points and weights on [-1/2, 1/2] (weights sum to 1), by Newton's method on
+/// the Legendre polynomial P_n (Abramowitz and Stegun 25.4.29; the starting guesses are
+/// Tricomi's).
+struct GaussRule {
+  int n = 0;
+  std::array<double, kMaxGauss> u{};
+  std::array<double, kMaxGauss> w{};
+};
+
+GaussRule gauss_rule(int n) {
+  GaussRule rule;
+  rule.n = std::clamp(n, 1, kMaxGauss);
+  n = rule.n;
+  for (int i = 0; i < n; ++i) {
+    double z = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5));
+    double dp = 1.0;
+    for (int it = 0; it < 100; ++it) {
+      double p0 = 1.0, p1 = z;
+      for (int k = 2; k <= n; ++k) {
+        const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+      }
+      if (n == 1) {
+        p1 = z;
+        p0 = 1.0;
+      }
+      dp = n * (z * p1 - p0) / (z * z - 1.0);
+      const double dz = p1 / dp;
+      z -= dz;
+      if (std::abs(dz) < 1e-15)
+        break;
+    }
+    rule.u[i] = 0.5 * z;
+    rule.w[i] = 1.0 / ((1.0 - z * z) * dp * dp); // 2 / ((1 - z^2) P_n'^2), halved
+  }
+  return rule;
+}
+
+/// Projection of point a onto segment (x, b) extended: the u where C'(u) . (C(u) - a) = 0, a
+/// local minimum of |C(u) - a|^2 / 2, by safeguarded Newton from the projection onto the chord.
+struct PointProjection {
+  bool converged = false;
+  double u = 0.0;
+};
+
+PointProjection project_onto(const Vector3d& a, const Matrix3d& x, const SegmentBasis& b,
+                             const SplineContactOptions& opt) {
+  PointProjection out;
+  const double limit = 0.5 + opt.max_extension;
+  const Vector3d p0 = x * b.values_local(-0.5);
+  const Vector3d chord = x * b.values_local(0.5) - p0;
+  double u = std::clamp((a - p0).dot(chord) / chord.squaredNorm() - 0.5, -limit, limit);
+  if (!std::isfinite(u))
+    return out;
+  const Vector3d c2 = x * b.second_local();
+  double previous = 0.0;
+  for (int it = 0; it < opt.max_iterations; ++it) {
+    const Vector3d d = x * b.values_local(u) - a;
+    const Vector3d c1 = x * b.first_local(u);
+    const double q = c1.dot(d);
+    const double h = c1.squaredNorm() + c2.dot(d);
+    const double scale = c1.squaredNorm();
+    if (!(scale > 0.0) || !std::isfinite(h))
+      return out;
+    const bool definite = h > 1e-3 * scale;
+    double step = -q / (definite ? h : 1e-3 * scale + std::abs(h));
+    if (definite && newton_step_converges(std::abs(step), previous, opt.step_tolerance)) {
+      out.converged = true;
+      out.u = u + step;
+      return out;
+    }
+    const bool capped = std::abs(step) > 0.5;
+    step = std::clamp(step, -0.5, 0.5);
+    double t = 1.0;
+    if (!definite || capped) {
+      const double phi = 0.5 * d.squaredNorm();
+      while (0.5 * (x * b.values_local(u + t * step) - a).squaredNorm() >
+             phi + 1e-4 * t * q * step) {
+        t *= 0.5;
+        if (t < 1e-12)
+          return out;
+      }
+    }
+    previous = definite && !capped && t == 1.0 ? std::abs(step) : 0.0;
+    u += t * step;
+    if (std::abs(u) > limit)
+      return out;
+  }
+  return out;
+}
+
+/// Whether B's segment owns the projection u of point a; see line_contact.
+bool owns_projection(const Matrix3d& x, const SegmentBasis& b, double u, const Vector3d& a) {
+  // q(knot) = C'(knot) . (C(knot) - a) up to a positive factor, from the shared control points
+  // x0, x1 (knot point (x0 + x1) / 2, tangent along x1 - x0); q increases through the minimum,
+  // so q(knot) > 0 puts the minimum below the knot.
+  auto side = [&](int i) {
+    const Vector3d x0 = x.col(i), x1 = x.col(i + 1);
+    return (x1 - x0).dot(0.5 * (x0 + x1) - a);
+  };
+  if (b.begin() > 0.0 && std::abs(u + 0.5) < kKnotBand)
+    return !(side(0) > 0.0);
+  if (!b.closes_end() && std::abs(u - 0.5) < kKnotBand)
+    return side(1) > 0.0;
+  return b.owns(b.global(u));
+}
+
+Jet3 jet_point(const Matrix3d& x, const SegmentBasis& b, int first, const Jet& u) {
+  return curve_jet(x, first, 1.0, u, b.values_local(u.v), b.first_local(u.v), b.second_local());
+}
+Jet3 jet_tangent(const Matrix3d& x, const SegmentBasis& b, int first, const Jet& u) {
+  return curve_jet(x, first, 1.0, u, b.first_local(u.v), b.second_local(), Vector3d::Zero());
+}
+Jet3 jet_curvature(const Matrix3d& x, const SegmentBasis& b, int first, const Jet& u) {
+  return curve_jet(x, first, 1.0, u, b.second_local(), Vector3d::Zero(), Vector3d::Zero());
+}
+
+/// Squared sine of the angle between t1 and t2.
+Jet sine2_of(const Jet3& t1, const Jet3& t2) {
+  const Jet c = dot(t1, t2);
+  return Jet(1.0) - (c * c) / (dot(t1, t1) * dot(t2, t2));
+}
+
+double sine2_of(const Vector3d& t1, const Vector3d& t2) {
+  return t1.cross(t2).squaredNorm() / (t1.squaredNorm() * t2.squaredNorm());
+}
+
+Jet share_jet(const Jet& sine2, const AllAngleOptions& opt) {
+  double ds = 0.0, d2s = 0.0;
+  const double s = point_share(sine2.v, opt, &ds, &d2s);
+  return apply(sine2, s, ds, d2s);
+}
+
+} // namespace
+
+double point_share(double sine2, const AllAngleOptions& options, double* ds, double* d2s) {
+  const double lo = options.line_sine * options.line_sine;
+  const double hi = options.point_sine * options.point_sine;
+  const double q = (sine2 - lo) / (hi - lo);
+  double s = 0.0, dq = 0.0, d2q = 0.0;
+  if (q >= 1.0) {
+    s = 1.0;
+  } else if (q > 0.0) {
+    s = q * q * q * (10.0 + q * (-15.0 + 6.0 * q));
+    dq = 30.0 * q * q * (1.0 + q * (-2.0 + q));
+    d2q = 60.0 * q * (1.0 + q * (-3.0 + 2.0 * q));
+  }
+  if (ds != nullptr)
+    *ds = dq / (hi - lo);
+  if (d2s != nullptr)
+    *d2s = d2q / ((hi - lo) * (hi - lo));
+  return s;
+}
+
+void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double radius_A,
+                  const Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
+                  const InterfaceLaw& law, const AllAngleOptions& all_angle, LineContactResult& out,
+                  const SplineContactOptions& options) {
+  out.points = 0;
+  out.failed = 0;
+  out.force = 0.0;
+  out.potential = 0.0;
+  out.gap = 0.0;
+  out.residual.setZero();
+  if (options.compute_tangent)
+    out.tangent.setZero();
+  const double reach = radius_A + radius_B;
+  const double hi2 = all_angle.point_sine * all_angle.point_sine;
+  const GaussRule rule = gauss_rule(all_angle.gauss_points);
+  double deepest = 0.0;
+  for (int i = 0; i < rule.n; ++i) {
+    const double ua = rule.u[i];
+    const Vector3d a = control_A * basis_A.values_local(ua);
+    const Vector3d ta = control_A * basis_A.first_local(ua);
+    const PointProjection proj = project_onto(a, control_B, basis_B, options);
+    if (!proj.converged) {
+      ++out.failed;
+      continue;
+    }
+    if (!owns_projection(control_B, basis_B, proj.u, a))
+      continue;
+    const Vector3d b = control_B * basis_B.values_local(proj.u);
+    const Vector3d tb = control_B * basis_B.first_local(proj.u);
+    const double dist = (a - b).norm();
+    if (!(dist < reach) || !(sine2_of(ta, tb) < hi2))
+      continue; // no penetration, or the point contact's alone: nothing to add
+    // Jets: A's point and tangent at the fixed Gauss point, B's projection by two Newton steps.
+    const Jet fixed(ua);
+    const Jet3 ja = jet_point(control_A, basis_A, 0, fixed);
+    const Jet3 jta = jet_tangent(control_A, basis_A, 0, fixed);
+    Jet v(proj.u);
+    for (int step = 0; step < 2; ++step) {
+      const Jet3 d = jet_point(control_B, basis_B, 3, v) - ja;
+      const Jet3 t = jet_tangent(control_B, basis_B, 3, v);
+      const Jet3 k = jet_curvature(control_B, basis_B, 3, v);
+      const Jet q = dot(t, d);
+      const Jet h = dot(t, t) + dot(k, d);
+      v = v - q / h;
+    }
+    const Jet3 g = ja - jet_point(control_B, basis_B, 3, v);
+    const Jet3 jtb = jet_tangent(control_B, basis_B, 3, v);
+    const Jet distance = sqrt(dot(g, g));
+    const Jet p = Jet(reach) - distance;
+    const double scale = all_angle.line_scale;
+    const Jet u = apply(p, scale * law.potential(p.v), scale * law.force(p.v, 0.0),
+                        scale * law.stiffness(p.v, 0.0));
+    const Jet length = sqrt(dot(jta, jta)); // |dC_A/du|: arc length per unit of u
+    const Jet line_share = Jet(1.0) - share_jet(sine2_of(jta, jtb), all_angle);
+    const Jet e = (rule.w[i] * length) * (line_share * u);
+    out.potential += e.v;
+    out.residual += e.g;
+    if (options.compute_tangent)
+      out.tangent += e.h;
+    out.force += rule.w[i] * length.v * line_share.v * scale * law.force(p.v, 0.0);
+    ++out.points;
+    if (p.v > deepest) {
+      deepest = p.v;
+      out.gap = -p.v;
+      out.point_A = a;
+      out.point_B = value(ja - g);
+      out.normal = value(g) / distance.v;
+    }
+  }
+}
+
+void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double radius_A,
+                       const Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
+                       const ProjectionStart& start, const InterfaceLaw& law,
+                       const AllAngleOptions& all_angle, SplineContactResult& out,
+                       const SplineContactOptions& options) {
+  const Vector3d chord_a = control_A * (basis_A.values_local(0.5) - basis_A.values_local(-0.5));
+  const Vector3d chord_b = control_B * (basis_B.values_local(0.5) - basis_B.values_local(-0.5));
+  const double chord_sine2 = sine2_of(chord_a, chord_b);
+  const double gate = 0.5 * all_angle.line_sine;
+  // Point part.
+  out.point_evaluated = chord_sine2 >= gate * gate;
+  out.point_share = 0.0;
+  out.line_points = 0;
+  bool tangent_written = false;
+  if (out.point_evaluated) {
+    spline_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
+                   options);
+    tangent_written = out.active && options.compute_tangent;
+    // Between half the line angle and the line angle the point contact is ill-conditioned and
+    // would carry no share: a failed projection there is not the step's fault.
+    if (out.status == ProjectionStatus::NotConverged &&
+        chord_sine2 < all_angle.line_sine * all_angle.line_sine)
+      out.status = ProjectionStatus::OutOfRange;
+  } else {
+    out.status = ProjectionStatus::OutOfRange;
+    out.degenerate = false;
+    out.iterations = 0;
+    out.xi_A = start.warm ? start.xi_A : basis_A.mid();
+    out.xi_B = start.warm ? start.xi_B : basis_B.mid();
+    out.active = false;
+    out.force = out.potential = out.penetration_rate = 0.0;
+    out.distance = out.gap = out.penetration = 0.0;
+    out.point_A.setZero();
+    out.point_B.setZero();
+    out.normal.setZero();
+    out.residual.setZero();
+  }
+  const bool owned =
+      out.status == ProjectionStatus::Converged || out.status == ProjectionStatus::Jumped;
+  if (out.point_evaluated && owned) {
+    const double ua = basis_A.local(out.xi_A), ub = basis_B.local(out.xi_B);
+    const double sine2 =
+        sine2_of(control_A * basis_A.first_local(ua), control_B * basis_B.first_local(ub));
+    out.point_share = point_share(sine2, all_angle);
+    if (out.point_share == 0.0) {
+      // No share: a jump of this point moves no force.
+      if (out.status == ProjectionStatus::Jumped)
+        out.status = ProjectionStatus::Converged;
+      out.active = false;
+      out.force = out.potential = 0.0;
+      out.residual.setZero();
+      tangent_written = false;
+    } else if (out.point_share < 1.0 && out.active) {
+      // s(x) U(x): the closest points' jets by two Newton steps on r = [C_A'.g, -C_B'.g].
+      Jet jua(ua), jub(ub);
+      for (int step = 0; step < 2; ++step) {
+        const Jet3 g =
+            jet_point(control_A, basis_A, 0, jua) - jet_point(control_B, basis_B, 3, jub);
+        const Jet3 ta = jet_tangent(control_A, basis_A, 0, jua);
+        const Jet3 tb = jet_tangent(control_B, basis_B, 3, jub);
+        const Jet r0 = dot(ta, g);
+        const Jet r1 = -dot(tb, g);
+        const Jet h00 = dot(ta, ta) + dot(jet_curvature(control_A, basis_A, 0, jua), g);
+        const Jet h01 = -dot(ta, tb);
+        const Jet h11 = dot(tb, tb) - dot(jet_curvature(control_B, basis_B, 3, jub), g);
+        const Jet inv = reciprocal(h00 * h11 - h01 * h01);
+        const Jet da = inv * (h11 * r0 - h01 * r1);
+        const Jet db = inv * (h00 * r1 - h01 * r0);
+        jua = jua - da;
+        jub = jub - db;
+      }
+      const Jet s = share_jet(sine2_of(jet_tangent(control_A, basis_A, 0, jua),
+                                       jet_tangent(control_B, basis_B, 3, jub)),
+                              all_angle);
+      const double u = out.potential;
+      if (options.compute_tangent) {
+        out.tangent *= s.v;
+        out.tangent.noalias() += s.g * out.residual.transpose();
+        out.tangent.noalias() += out.residual * s.g.transpose();
+        out.tangent += u * s.h;
+      }
+      out.residual = s.v * out.residual + u * s.g;
+      out.potential = s.v * u;
+      out.force *= s.v;
+    }
+  }
+  // Line part, where the chords are not clearly crossing (below twice the point angle, where
+  // the line share is 0 unless the segments are strongly curved).
+  const double line_gate = std::min(1.0, 2.0 * all_angle.point_sine);
+  if (chord_sine2 >= line_gate * line_gate) {
+    if (!tangent_written && options.compute_tangent && options.zero_unused_tangent)
+      out.tangent.setZero();
+    return;
+  }
+  LineContactResult line;
+  line_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, law, all_angle, line,
+               options);
+  out.line_points = line.points;
+  if (line.points == 0) {
+    if (!tangent_written && options.compute_tangent && options.zero_unused_tangent)
+      out.tangent.setZero();
+    return;
+  }
+  if (!out.active) {
+    out.gap = line.gap;
+    out.penetration = -line.gap;
+    out.distance = line.gap + radius_A + radius_B;
+    out.point_A = line.point_A;
+    out.point_B = line.point_B;
+    out.normal = line.normal;
+    if (out.status != ProjectionStatus::NotConverged && out.status != ProjectionStatus::Jumped)
+      out.status = ProjectionStatus::Converged;
+  }
+  out.active = true;
+  out.force += line.force;
+  out.potential += line.potential;
+  out.residual += line.residual;
+  if (options.compute_tangent) {
+    if (tangent_written)
+      out.tangent += line.tangent;
+    else
+      out.tangent = line.tangent;
+  }
+}
+
+} // namespace yarnsim::contact
