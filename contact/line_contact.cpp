@@ -73,6 +73,7 @@ GaussRule gauss_rule(int n) {
 /// local minimum of |C(u) - a|^2 / 2, by safeguarded Newton from the projection onto the chord.
 struct PointProjection {
   bool converged = false;
+  bool left = false; ///< an iterate went beyond the segment's neighbourhood (not this pair's)
   double u = 0.0;
 };
 
@@ -116,8 +117,10 @@ PointProjection project_onto(const Vector3d& a, const Matrix3d& x, const Segment
     }
     previous = definite && !capped && t == 1.0 ? std::abs(step) : 0.0;
     u += t * step;
-    if (std::abs(u) > limit)
+    if (std::abs(u) > limit) {
+      out.left = true;
       return out;
+    }
   }
   return out;
 }
@@ -207,7 +210,7 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
     const Vector3d ta = control_A * basis_A.first_local(ua);
     const PointProjection proj = project_onto(a, control_B, basis_B, options);
     if (!proj.converged) {
-      ++out.failed;
+      out.failed += proj.left ? 0 : 1;
       continue;
     }
     if (!owns_projection(control_B, basis_B, proj.u, a))

@@ -10,7 +10,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <random>
 
 namespace yarnsim::contact {
@@ -206,8 +205,6 @@ TEST(LineContact, ForceIsContinuousAsAYarnTurnsFromCrossingToParallel) {
     const Curves c = make_curves(angle, 2 * kRadius - 2e-6, 0.3 * kH, 0.0, same);
     const Total t = total(c, opt);
     ASSERT_GT(t.force, 0.0) << angle;
-    if (std::getenv("YARNSIM_DEBUG") != nullptr)
-      std::printf("%.5f %.6g %d\n", angle, t.force, t.line_points);
     if (previous_force > 0) {
       const double jump = std::abs(t.force - previous_force) / std::max(t.force, previous_force);
       if (jump > worst) {
