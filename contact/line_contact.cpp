@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 // Derivatives. A Gauss point's projection v(x) onto B and the closest points (u_A, u_B)(x) of
@@ -193,7 +194,9 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
                   const InterfaceLaw& law, const AllAngleOptions& all_angle, LineContactResult& out,
                   const SplineContactOptions& options) {
   out.points = 0;
+  out.owned = 0;
   out.failed = 0;
+  out.min_gap = std::numeric_limits<double>::infinity();
   out.force = 0.0;
   out.potential = 0.0;
   out.gap = 0.0;
@@ -218,6 +221,8 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
     const Vector3d b = control_B * basis_B.values_local(proj.u);
     const Vector3d tb = control_B * basis_B.first_local(proj.u);
     const double dist = (a - b).norm();
+    ++out.owned;
+    out.min_gap = std::min(out.min_gap, dist - reach);
     if (!(dist < reach) || !(sine2_of(ta, tb) < hi2))
       continue; // no penetration, or the point contact's alone: nothing to add
     // Jets: A's point and tangent at the fixed Gauss point, B's projection by two Newton steps.
@@ -357,6 +362,19 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
   line_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, law, all_angle, line,
                options);
   out.line_points = line.points;
+  if (line.owned > 0 && !out.active) {
+    // The smallest gap this pair sees (the run's clearance report and summary): the line's,
+    // where the point contact was not evaluated or is a neighbour's.
+    const bool point_gap = out.status == ProjectionStatus::Converged;
+    if (!point_gap && out.status != ProjectionStatus::NotConverged &&
+        out.status != ProjectionStatus::Jumped)
+      out.status = ProjectionStatus::Converged;
+    if (!point_gap || line.min_gap < out.gap) {
+      out.gap = line.min_gap;
+      out.penetration = -line.min_gap;
+      out.distance = line.min_gap + radius_A + radius_B;
+    }
+  }
   if (line.points == 0) {
     if (!tangent_written && options.compute_tangent && options.zero_unused_tangent)
       out.tangent.setZero();

@@ -40,7 +40,11 @@ double point_share(double sine2, const AllAngleOptions& options, double* ds = nu
 /// Outcome of the line part of one segment pair.
 struct LineContactResult {
   int points = 0; ///< Gauss points of A owned by this pair (projection in B's range) and in contact
-  int failed = 0; ///< Gauss points whose projection onto B did not converge (skipped)
+  /// Gauss points whose projection onto B did not converge (skipped), beside those that left
+  /// B's neighbourhood (another pair's).
+  int failed = 0;
+  int owned = 0;          ///< Gauss points of A owned by this pair, in contact or not
+  double min_gap = 0.0;   ///< smallest effective gap of the owned points, m (infinite if none)
   double force = 0.0;     ///< sum over the points of weight * (1 - s) * line force, N
   double potential = 0.0; ///< J
   /// The deepest point in contact: its gap (m), curve points and normal (B to A).
@@ -77,8 +81,10 @@ void line_contact(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
 /// half of line_sine, below which s is 0 for all but strongly curved segments) plus the line
 /// contact above. Where s = 1 the result is spline_contact's, bit for bit. `out` holds the
 /// sum: active when either part is, force and potential summed, gap, points and normal of the
-/// point contact when it is active, otherwise of the deepest line point; status, xi and
-/// iterations of the point contact (OutOfRange with the start's xi when it was not evaluated).
+/// point contact when it is active, otherwise of the deepest line point (or, with none in
+/// contact, the smallest gap of the owned line points); xi and iterations of the point contact
+/// (the start's xi when it was not evaluated); status the point contact's, or Converged where
+/// it is not (OutOfRange, not evaluated) but the line part owns Gauss points.
 /// Never allocates.
 void all_angle_contact(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
                        double radius_A, const Eigen::Matrix3d& control_B,

@@ -160,6 +160,26 @@ TEST(LineContact, StraightParallelYarnsCarryThePenaltyTimesTheLengthThroughEvery
   }
 }
 
+TEST(LineContact, ParallelYarnsApartAreInactiveAndReportTheirGap) {
+  // Parallel chords: the point contact is not evaluated, and the pair reports the smallest gap
+  // of its Gauss points (the run's clearance report reads it).
+  std::mt19937 rng(1);
+  const Curves c = make_curves(0.0, 2 * kRadius + 3e-5, 0.0, 0.0, rng);
+  static const LinearPenalty law(kEps);
+  const SplineContactResult r = [&] {
+    SplineContactResult out;
+    all_angle_contact(curve().control_points(c.a, 1), curve().segment(1), kRadius,
+                      curve().control_points(c.b, 1), curve().segment(1), kRadius, {}, law, {},
+                      out);
+    return out;
+  }();
+  EXPECT_FALSE(r.active);
+  EXPECT_FALSE(r.point_evaluated);
+  EXPECT_EQ(r.status, ProjectionStatus::Converged);
+  EXPECT_NEAR(r.gap, 3e-5, 1e-15);
+  EXPECT_EQ(r.line_points, 0);
+}
+
 TEST(LineContact, ResidualAndTangentMatchFiniteDifferencesFromParallelToCrossing) {
   AllAngleOptions opt;
   opt.line_scale = 1.0 / (2 * kRadius);
