@@ -789,6 +789,51 @@ TEST(DeckSplines, GroupsAreGivenOneWay) {
                            "splines (contact within it), found false");
 }
 
+TEST(DeckSplines, AllAngleContactKeysDefaultAndAreChecked) {
+  // Defaults: the all-angle contact, line below 10 degrees, point above 20, 5 Gauss points,
+  // the line penalty from the radii (0).
+  const Model defaults = read_deck_string(kSplines, "deck.toml");
+  const SplineContactDefinition& d = defaults.spline_contacts[0];
+  EXPECT_TRUE(d.line_contact);
+  EXPECT_DOUBLE_EQ(d.line_angle, 10.0);
+  EXPECT_DOUBLE_EQ(d.point_angle, 20.0);
+  EXPECT_DOUBLE_EQ(d.line_penalty, 0.0);
+  EXPECT_EQ(d.gauss_points, 5);
+
+  std::string deck = replace(kSplines, "margin = 0.001\n",
+                             "margin = 0.001\nline_angle = 5.0\npoint_angle = 15.0\n"
+                             "line_penalty = 3e9\ngauss_points = 8\n");
+  const SplineContactDefinition c = read_deck_string(deck, "deck.toml").spline_contacts[0];
+  EXPECT_DOUBLE_EQ(c.line_angle, 5.0);
+  EXPECT_DOUBLE_EQ(c.point_angle, 15.0);
+  EXPECT_DOUBLE_EQ(c.line_penalty, 3e9);
+  EXPECT_EQ(c.gauss_points, 8);
+
+  deck = replace(kSplines, "margin = 0.001\n", "margin = 0.001\nline_angle = 25.0\n");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "25.0") + "contacts[0].line_angle: expected line_angle < "
+                                             "point_angle (degrees), found 25 and 20");
+
+  deck = replace(kSplines, "margin = 0.001\n", "margin = 0.001\ngauss_points = 11\n");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_NE(errors[0].find("contacts[0].gauss_points"), std::string::npos) << errors[0];
+
+  deck = replace(kSplines, "margin = 0.001\n",
+                 "margin = 0.001\nline_contact = false\n"
+                 "point_angle = 30.0\n");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "30.0") + "contacts[0].point_angle: 'point_angle' applies "
+                                             "only with line_contact = true");
+
+  deck = replace(kSplines, "margin = 0.001\n", "margin = 0.001\nline_angel = 5.0\n");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_NE(errors[0].find("did you mean 'line_angle'"), std::string::npos) << errors[0];
+}
+
 TEST(DeckSplines, ContactTypeIsChecked) {
   const std::string deck = replace(kSplines, "type = \"spline\"", "type = \"spilne\"");
   const auto errors = errors_of(deck);
