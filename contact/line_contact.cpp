@@ -142,30 +142,95 @@ bool owns_projection(const Matrix3d& x, const SegmentBasis& b, double u, const V
   return b.owns(b.global(u));
 }
 
-Jet3 jet_point(const Matrix3d& x, const SegmentBasis& b, int first, const Jet& u) {
-  return curve_jet(x, first, 1.0, u, b.values_local(u.v), b.first_local(u.v), b.second_local());
+template <int H>
+Jet3T<H> jet_point(const Matrix3d& x, const SegmentBasis& b, int first, const JetT<H>& u) {
+  return curve_jet(x, first, u, b.values_local(u.v), b.first_local(u.v), b.second_local());
 }
-Jet3 jet_tangent(const Matrix3d& x, const SegmentBasis& b, int first, const Jet& u) {
-  return curve_jet(x, first, 1.0, u, b.first_local(u.v), b.second_local(), Vector3d::Zero());
+template <int H>
+Jet3T<H> jet_tangent(const Matrix3d& x, const SegmentBasis& b, int first, const JetT<H>& u) {
+  return curve_jet(x, first, u, b.first_local(u.v), b.second_local(), Vector3d::Zero());
 }
-Jet3 jet_curvature(const Matrix3d& x, const SegmentBasis& b, int first, const Jet& u) {
-  return curve_jet(x, first, 1.0, u, b.second_local(), Vector3d::Zero(), Vector3d::Zero());
+template <int H>
+Jet3T<H> jet_curvature(const Matrix3d& x, const SegmentBasis& b, int first, const JetT<H>& u) {
+  return curve_jet(x, first, u, b.second_local(), Vector3d::Zero(), Vector3d::Zero());
 }
 
 /// Squared sine of the angle between t1 and t2.
-Jet sine2_of(const Jet3& t1, const Jet3& t2) {
-  const Jet c = dot(t1, t2);
-  return Jet(1.0) - (c * c) / (dot(t1, t1) * dot(t2, t2));
+template <int H>
+JetT<H> sine2_of(const Jet3T<H>& t1, const Jet3T<H>& t2) {
+  const JetT<H> c = dot(t1, t2);
+  return JetT<H>(1.0) - (c * c) / (dot(t1, t1) * dot(t2, t2));
 }
 
 double sine2_of(const Vector3d& t1, const Vector3d& t2) {
   return t1.cross(t2).squaredNorm() / (t1.squaredNorm() * t2.squaredNorm());
 }
 
-Jet share_jet(const Jet& sine2, const AllAngleOptions& opt) {
+template <int H>
+JetT<H> share_jet(const JetT<H>& sine2, const AllAngleOptions& opt) {
   double ds = 0.0, d2s = 0.0;
   const double s = point_share(sine2.v, opt, &ds, &d2s);
   return apply(sine2, s, ds, d2s);
+}
+
+/// One Gauss point's term of the line potential, w |C_A'(u)| (1 - s) U(p) line_scale, as a jet
+/// of the positions: A's point and tangent at the fixed Gauss point u, B's projection v by two
+/// Newton steps from its converged value. Also returns the term's normal force.
+template <int H>
+JetT<H> gauss_point_term(const Matrix3d& control_A, const SegmentBasis& basis_A, double u,
+                         double weight, const Matrix3d& control_B, const SegmentBasis& basis_B,
+                         double v0, double reach, const InterfaceLaw& law,
+                         const AllAngleOptions& all_angle, double& force) {
+  using J = JetT<H>;
+  const J fixed(u);
+  const Jet3T<H> ja = jet_point(control_A, basis_A, 0, fixed);
+  const Jet3T<H> jta = jet_tangent(control_A, basis_A, 0, fixed);
+  J v(v0);
+  for (int step = 0; step < 2; ++step) {
+    const Jet3T<H> d = jet_point(control_B, basis_B, 3, v) - ja;
+    const Jet3T<H> t = jet_tangent(control_B, basis_B, 3, v);
+    const Jet3T<H> k = jet_curvature(control_B, basis_B, 3, v);
+    v = v - dot(t, d) / (dot(t, t) + dot(k, d));
+  }
+  const Jet3T<H> g = ja - jet_point(control_B, basis_B, 3, v);
+  const Jet3T<H> jtb = jet_tangent(control_B, basis_B, 3, v);
+  const J p = J(reach) - sqrt(dot(g, g));
+  const double scale = all_angle.line_scale;
+  const double f = scale * law.force(p.v, 0.0);
+  const J energy = apply(p, scale * law.potential(p.v), f, scale * law.stiffness(p.v, 0.0));
+  const J length = sqrt(dot(jta, jta)); // |dC_A/du|: arc length per unit of u
+  const J line_share = J(1.0) - share_jet(sine2_of(jta, jtb), all_angle);
+  force = weight * length.v * line_share.v * f;
+  return (weight * length) * (line_share * energy);
+}
+
+/// The point share s of the closest points (u_A, u_B) as a jet of the positions: two Newton
+/// steps on r = [C_A'.g, -C_B'.g] from the converged values.
+template <int H>
+JetT<H> point_share_jet(const Matrix3d& control_A, const SegmentBasis& basis_A, double ua,
+                        const Matrix3d& control_B, const SegmentBasis& basis_B, double ub,
+                        const AllAngleOptions& all_angle) {
+  using J = JetT<H>;
+  J jua(ua), jub(ub);
+  for (int step = 0; step < 2; ++step) {
+    const Jet3T<H> g =
+        jet_point(control_A, basis_A, 0, jua) - jet_point(control_B, basis_B, 3, jub);
+    const Jet3T<H> ta = jet_tangent(control_A, basis_A, 0, jua);
+    const Jet3T<H> tb = jet_tangent(control_B, basis_B, 3, jub);
+    const J r0 = dot(ta, g);
+    const J r1 = -dot(tb, g);
+    const J h00 = dot(ta, ta) + dot(jet_curvature(control_A, basis_A, 0, jua), g);
+    const J h01 = -dot(ta, tb);
+    const J h11 = dot(tb, tb) - dot(jet_curvature(control_B, basis_B, 3, jub), g);
+    const J inv = reciprocal(h00 * h11 - h01 * h01);
+    const J da = inv * (h11 * r0 - h01 * r1);
+    const J db = inv * (h00 * r1 - h01 * r0);
+    jua = jua - da;
+    jub = jub - db;
+  }
+  return share_jet(
+      sine2_of(jet_tangent(control_A, basis_A, 0, jua), jet_tangent(control_B, basis_B, 3, jub)),
+      all_angle);
 }
 
 } // namespace
@@ -225,41 +290,27 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
     out.min_gap = std::min(out.min_gap, dist - reach);
     if (!(dist < reach) || !(sine2_of(ta, tb) < hi2))
       continue; // no penetration, or the point contact's alone: nothing to add
-    // Jets: A's point and tangent at the fixed Gauss point, B's projection by two Newton steps.
-    const Jet fixed(ua);
-    const Jet3 ja = jet_point(control_A, basis_A, 0, fixed);
-    const Jet3 jta = jet_tangent(control_A, basis_A, 0, fixed);
-    Jet v(proj.u);
-    for (int step = 0; step < 2; ++step) {
-      const Jet3 d = jet_point(control_B, basis_B, 3, v) - ja;
-      const Jet3 t = jet_tangent(control_B, basis_B, 3, v);
-      const Jet3 k = jet_curvature(control_B, basis_B, 3, v);
-      const Jet q = dot(t, d);
-      const Jet h = dot(t, t) + dot(k, d);
-      v = v - q / h;
-    }
-    const Jet3 g = ja - jet_point(control_B, basis_B, 3, v);
-    const Jet3 jtb = jet_tangent(control_B, basis_B, 3, v);
-    const Jet distance = sqrt(dot(g, g));
-    const Jet p = Jet(reach) - distance;
-    const double scale = all_angle.line_scale;
-    const Jet u = apply(p, scale * law.potential(p.v), scale * law.force(p.v, 0.0),
-                        scale * law.stiffness(p.v, 0.0));
-    const Jet length = sqrt(dot(jta, jta)); // |dC_A/du|: arc length per unit of u
-    const Jet line_share = Jet(1.0) - share_jet(sine2_of(jta, jtb), all_angle);
-    const Jet e = (rule.w[i] * length) * (line_share * u);
-    out.potential += e.v;
-    out.residual += e.g;
-    if (options.compute_tangent)
+    double force = 0.0;
+    if (options.compute_tangent) {
+      const Jet e = gauss_point_term<18>(control_A, basis_A, ua, rule.w[i], control_B, basis_B,
+                                         proj.u, reach, law, all_angle, force);
+      out.potential += e.v;
+      out.residual += e.g;
       out.tangent += e.h;
-    out.force += rule.w[i] * length.v * line_share.v * scale * law.force(p.v, 0.0);
+    } else {
+      const JetT<0> e = gauss_point_term<0>(control_A, basis_A, ua, rule.w[i], control_B, basis_B,
+                                            proj.u, reach, law, all_angle, force);
+      out.potential += e.v;
+      out.residual += e.g;
+    }
+    out.force += force;
     ++out.points;
-    if (p.v > deepest) {
-      deepest = p.v;
-      out.gap = -p.v;
+    if (reach - dist > deepest) {
+      deepest = reach - dist;
+      out.gap = dist - reach;
       out.point_A = a;
-      out.point_B = value(ja - g);
-      out.normal = value(g) / distance.v;
+      out.point_B = b;
+      out.normal = (a - b) / dist;
     }
   }
 }
@@ -317,37 +368,23 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
       out.residual.setZero();
       tangent_written = false;
     } else if (out.point_share < 1.0 && out.active) {
-      // s(x) U(x): the closest points' jets by two Newton steps on r = [C_A'.g, -C_B'.g].
-      Jet jua(ua), jub(ub);
-      for (int step = 0; step < 2; ++step) {
-        const Jet3 g =
-            jet_point(control_A, basis_A, 0, jua) - jet_point(control_B, basis_B, 3, jub);
-        const Jet3 ta = jet_tangent(control_A, basis_A, 0, jua);
-        const Jet3 tb = jet_tangent(control_B, basis_B, 3, jub);
-        const Jet r0 = dot(ta, g);
-        const Jet r1 = -dot(tb, g);
-        const Jet h00 = dot(ta, ta) + dot(jet_curvature(control_A, basis_A, 0, jua), g);
-        const Jet h01 = -dot(ta, tb);
-        const Jet h11 = dot(tb, tb) - dot(jet_curvature(control_B, basis_B, 3, jub), g);
-        const Jet inv = reciprocal(h00 * h11 - h01 * h01);
-        const Jet da = inv * (h11 * r0 - h01 * r1);
-        const Jet db = inv * (h00 * r1 - h01 * r0);
-        jua = jua - da;
-        jub = jub - db;
-      }
-      const Jet s = share_jet(sine2_of(jet_tangent(control_A, basis_A, 0, jua),
-                                       jet_tangent(control_B, basis_B, 3, jub)),
-                              all_angle);
+      // s(x) U(x), with U's gradient and Hessian the point contact's residual and tangent.
       const double u = out.potential;
       if (options.compute_tangent) {
+        const Jet s =
+            point_share_jet<18>(control_A, basis_A, ua, control_B, basis_B, ub, all_angle);
         out.tangent *= s.v;
         out.tangent.noalias() += s.g * out.residual.transpose();
         out.tangent.noalias() += out.residual * s.g.transpose();
         out.tangent += u * s.h;
+        out.residual = s.v * out.residual + u * s.g;
+      } else {
+        const JetT<0> s =
+            point_share_jet<0>(control_A, basis_A, ua, control_B, basis_B, ub, all_angle);
+        out.residual = s.v * out.residual + u * s.g;
       }
-      out.residual = s.v * out.residual + u * s.g;
-      out.potential = s.v * u;
-      out.force *= s.v;
+      out.potential = out.point_share * u;
+      out.force *= out.point_share;
     }
   }
   // Line part, where the chords are not clearly crossing (below twice the point angle, where

@@ -1,9 +1,9 @@
 #pragma once
-// Second-order forward-mode differentiation over the 18 positions of a segment pair: a value
-// with its gradient and Hessian, carried through the arithmetic of a contact kernel. Used where
-// the hand-written chain rule would be long and error-prone (the angle between the tangents at
-// projected points, whose second derivatives need the second derivatives of the projections).
-// Fixed size, no allocation.
+// Forward-mode differentiation over the 18 positions of a segment pair: a value with its
+// gradient and (for the tangent) its Hessian, carried through the arithmetic of a contact
+// kernel. Used where the hand-written chain rule would be long and error-prone (the angle
+// between the tangents at projected points, whose second derivatives need the second
+// derivatives of the projections). Fixed size, no allocation.
 
 #include <Eigen/Core>
 
@@ -11,72 +11,76 @@
 
 namespace yarnsim::contact {
 
-/// A scalar function of the 18 positions x at one point: value, d/dx (18) and d2/dx2 (18 x 18).
-struct Jet {
+/// A scalar function of the 18 positions x at one point: value, d/dx (18) and, for H = 18,
+/// d2/dx2 (18 x 18); H = 0 carries no Hessian (residual only: explicit dynamics), and every
+/// operation on it then costs a gradient's work.
+template <int H>
+struct JetT {
+  static_assert(H == 0 || H == 18);
   using Vec = Eigen::Matrix<double, 18, 1>;
-  using Mat = Eigen::Matrix<double, 18, 18>;
+  using Mat = Eigen::Matrix<double, H, H>;
   double v;
   Vec g;
   Mat h;
 
   /// A constant.
-  Jet() : Jet(0.0) {}
-  explicit Jet(double value) : v(value), g(Vec::Zero()), h(Mat::Zero()) {}
+  JetT() : JetT(0.0) {}
+  explicit JetT(double value) : v(value), g(Vec::Zero()), h(Mat::Zero()) {}
   /// Left unset, for the operators below that write every entry (saves zeroing 2.6 KB).
   struct Unset {};
-  explicit Jet(Unset) : v(0.0) {}
-  /// The linear function sum_k w_k x(3 k + d) (a curve point's component d with weights w).
-  static Jet linear(const Eigen::Matrix<double, 6, 1>& w, int d) {
-    Jet out;
-    for (int k = 0; k < 6; ++k)
-      out.g(3 * k + d) = w(k);
-    return out;
-  }
+  explicit JetT(Unset) : v(0.0) {}
 };
+
+/// Value, gradient and Hessian.
+using Jet = JetT<18>;
 
 /// h += s (a b^T + b a^T), column by column (Eigen's outer products of fixed 18-vectors cost
 /// more).
-inline void add_symmetric(Jet::Mat& h, const Jet::Vec& a, const Jet::Vec& b, double s) {
-  const Jet::Vec sa = s * a, sb = s * b;
-  for (int j = 0; j < 18; ++j)
-    h.col(j) += sa * b(j) + sb * a(j);
+template <int H>
+void add_symmetric(Eigen::Matrix<double, H, H>& h, const Eigen::Matrix<double, 18, 1>& a,
+                   const Eigen::Matrix<double, 18, 1>& b, double s) {
+  if constexpr (H > 0) {
+    const Eigen::Matrix<double, 18, 1> sa = s * a, sb = s * b;
+    for (int j = 0; j < 18; ++j)
+      h.col(j) += sa * b(j) + sb * a(j);
+  }
 }
 
-inline Jet operator+(const Jet& a, const Jet& b) {
-  Jet out{Jet::Unset{}};
+template <int H>
+JetT<H> operator+(const JetT<H>& a, const JetT<H>& b) {
+  JetT<H> out{typename JetT<H>::Unset{}};
   out.v = a.v + b.v;
   out.g = a.g + b.g;
   out.h = a.h + b.h;
   return out;
 }
-inline Jet operator-(const Jet& a, const Jet& b) {
-  Jet out{Jet::Unset{}};
+template <int H>
+JetT<H> operator-(const JetT<H>& a, const JetT<H>& b) {
+  JetT<H> out{typename JetT<H>::Unset{}};
   out.v = a.v - b.v;
   out.g = a.g - b.g;
   out.h = a.h - b.h;
   return out;
 }
-inline Jet operator-(const Jet& a) {
-  Jet out{Jet::Unset{}};
+template <int H>
+JetT<H> operator-(const JetT<H>& a) {
+  JetT<H> out{typename JetT<H>::Unset{}};
   out.v = -a.v;
   out.g = -a.g;
   out.h = -a.h;
   return out;
 }
-inline Jet operator*(double s, const Jet& a) {
-  Jet out{Jet::Unset{}};
+template <int H>
+JetT<H> operator*(double s, const JetT<H>& a) {
+  JetT<H> out{typename JetT<H>::Unset{}};
   out.v = s * a.v;
   out.g = s * a.g;
   out.h = s * a.h;
   return out;
 }
-inline Jet operator+(const Jet& a, double s) {
-  Jet out = a;
-  out.v += s;
-  return out;
-}
-inline Jet operator*(const Jet& a, const Jet& b) {
-  Jet out{Jet::Unset{}};
+template <int H>
+JetT<H> operator*(const JetT<H>& a, const JetT<H>& b) {
+  JetT<H> out{typename JetT<H>::Unset{}};
   out.v = a.v * b.v;
   out.g = b.v * a.g + a.v * b.g;
   out.h = b.v * a.h + a.v * b.h;
@@ -85,68 +89,74 @@ inline Jet operator*(const Jet& a, const Jet& b) {
 }
 
 /// f(a) from f, f' and f'' at a.v (the chain rule of second order).
-inline Jet apply(const Jet& a, double f, double df, double d2f) {
-  Jet out{Jet::Unset{}};
+template <int H>
+JetT<H> apply(const JetT<H>& a, double f, double df, double d2f) {
+  JetT<H> out{typename JetT<H>::Unset{}};
   out.v = f;
   out.g = df * a.g;
   out.h = df * a.h;
   add_symmetric(out.h, a.g, a.g, 0.5 * d2f);
   return out;
 }
-inline Jet reciprocal(const Jet& a) {
+template <int H>
+JetT<H> reciprocal(const JetT<H>& a) {
   const double r = 1.0 / a.v;
   return apply(a, r, -r * r, 2.0 * r * r * r);
 }
-inline Jet operator/(const Jet& a, const Jet& b) {
+template <int H>
+JetT<H> operator/(const JetT<H>& a, const JetT<H>& b) {
   return a * reciprocal(b);
 }
-inline Jet sqrt(const Jet& a) {
+template <int H>
+JetT<H> sqrt(const JetT<H>& a) {
   const double s = std::sqrt(a.v);
   return apply(a, s, 0.5 / s, -0.25 / (s * a.v));
 }
 
 /// A 3-vector of jets.
-struct Jet3 {
-  Jet c[3];
+template <int H>
+struct Jet3T {
+  JetT<H> c[3];
 };
-inline Jet dot(const Jet3& a, const Jet3& b) {
+template <int H>
+JetT<H> dot(const Jet3T<H>& a, const Jet3T<H>& b) {
   return a.c[0] * b.c[0] + a.c[1] * b.c[1] + a.c[2] * b.c[2];
 }
-inline Jet3 operator-(const Jet3& a, const Jet3& b) {
+template <int H>
+Jet3T<H> operator-(const Jet3T<H>& a, const Jet3T<H>& b) {
   return {{a.c[0] - b.c[0], a.c[1] - b.c[1], a.c[2] - b.c[2]}};
 }
-inline Jet3 operator*(const Jet& s, const Jet3& a) {
-  return {{s * a.c[0], s * a.c[1], s * a.c[2]}};
-}
-inline Jet3 operator+(const Jet3& a, const Jet3& b) {
-  return {{a.c[0] + b.c[0], a.c[1] + b.c[1], a.c[2] + b.c[2]}};
-}
-inline Eigen::Vector3d value(const Jet3& a) {
+template <int H>
+Eigen::Vector3d value(const Jet3T<H>& a) {
   return {a.c[0].v, a.c[1].v, a.c[2].v};
 }
 
 /// F(u) = sum_k phi_k(u) X_k as a jet of the positions, where X (columns, metres) are three
 /// control points whose coordinates are positions first * 3 ... first * 3 + 8 of x (first = 0
-/// for curve A, 3 for curve B), scaled by `sign`, and u is a jet (a parameter that depends on
-/// x). phi, dphi, d2phi: the three functions' values and first and second u-derivatives at u.v.
-inline Jet3 curve_jet(const Eigen::Matrix3d& X, int first, double sign, const Jet& u,
-                      const Eigen::Vector3d& phi, const Eigen::Vector3d& dphi,
-                      const Eigen::Vector3d& d2phi) {
-  Jet3 out{{Jet(Jet::Unset{}), Jet(Jet::Unset{}), Jet(Jet::Unset{})}};
-  const Eigen::Vector3d f = sign * (X * phi);
-  const Eigen::Vector3d df = sign * (X * dphi);
-  const Eigen::Vector3d d2f = sign * (X * d2phi);
+/// for curve A, 3 for curve B), and u is a jet (a parameter that depends on x). phi, dphi, d2phi:
+/// the three functions' values and first and second u-derivatives at u.v.
+template <int H>
+Jet3T<H> curve_jet(const Eigen::Matrix3d& X, int first, const JetT<H>& u,
+                   const Eigen::Vector3d& phi, const Eigen::Vector3d& dphi,
+                   const Eigen::Vector3d& d2phi) {
+  using J = JetT<H>;
+  Jet3T<H> out{{J(typename J::Unset{}), J(typename J::Unset{}), J(typename J::Unset{})}};
+  const Eigen::Vector3d f = X * phi;
+  const Eigen::Vector3d df = X * dphi;
+  const Eigen::Vector3d d2f = X * d2phi;
   for (int d = 0; d < 3; ++d) {
-    Jet& o = out.c[d];
+    J& o = out.c[d];
     o.v = f(d);
     o.g = df(d) * u.g;
     o.h = df(d) * u.h;
     add_symmetric(o.h, u.g, u.g, 0.5 * d2f(d));
     for (int k = 0; k < 3; ++k) {
       const int i = 3 * (first + k) + d;
-      o.g(i) += sign * phi(k);
-      o.h.col(i) += (sign * dphi(k)) * u.g;
-      o.h.row(i) += (sign * dphi(k)) * u.g.transpose();
+      o.g(i) += phi(k);
+      if constexpr (H > 0) {
+        o.h.col(i) += dphi(k) * u.g;
+        o.h.row(i) += dphi(k) * u.g.transpose();
+      }
     }
   }
   return out;

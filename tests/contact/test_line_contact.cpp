@@ -63,7 +63,7 @@ struct Total {
   Mat tangent = Mat::Zero(6 * kPoints, 6 * kPoints);
 };
 
-Total total(const Curves& c, const AllAngleOptions& opt) {
+Total total(const Curves& c, const AllAngleOptions& opt, const SplineContactOptions& so = {}) {
   static const LinearPenalty law(kEps);
   Total t;
   SplineContactResult r;
@@ -71,7 +71,7 @@ Total total(const Curves& c, const AllAngleOptions& opt) {
     for (int j = 0; j < curve().num_segments(); ++j) {
       all_angle_contact(curve().control_points(c.a, i), curve().segment(i), kRadius,
                         curve().control_points(c.b, j), curve().segment(j), kRadius, {}, law, opt,
-                        r);
+                        r, so);
       EXPECT_NE(r.status, ProjectionStatus::NotConverged) << i << " " << j;
       if (!r.active)
         continue;
@@ -200,6 +200,14 @@ TEST(LineContact, ResidualAndTangentMatchFiniteDifferencesFromParallelToCrossing
                   angle, shift / kH, t.line_points, er, et);
       EXPECT_LT(er, 1e-5) << angle;
       EXPECT_LT(et, 1e-5) << angle;
+      // The residual-only path (explicit dynamics: first-order jets) gives the same residual.
+      SplineContactOptions residual_only;
+      residual_only.compute_tangent = false;
+      const Total f = total(c, opt, residual_only);
+      EXPECT_LT((f.residual - t.residual).lpNorm<Eigen::Infinity>(),
+                1e-12 * t.residual.lpNorm<Eigen::Infinity>())
+          << angle;
+      EXPECT_EQ(f.potential, t.potential) << angle;
       worst_r = std::max(worst_r, er);
       worst_t = std::max(worst_t, et);
     }
