@@ -21,8 +21,6 @@ namespace yarnsim::contact {
 
 namespace {
 
-using Vec18 = Eigen::Matrix<double, 18, 1>;
-using Mat18 = Eigen::Matrix<double, 18, 18>;
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
@@ -75,7 +73,7 @@ GaussRule gauss_rule(int n) {
 struct PointProjection {
   bool converged = false;
   bool left = false; ///< an iterate went beyond the segment's neighbourhood (not this pair's)
-  double u = 0.0;
+  double u = 0.0;    ///< the solution, or the last iterate
 };
 
 PointProjection project_onto(const Vector3d& a, const Matrix3d& x, const SegmentBasis& b,
@@ -95,6 +93,7 @@ PointProjection project_onto(const Vector3d& a, const Matrix3d& x, const Segment
     const double q = c1.dot(d);
     const double h = c1.squaredNorm() + c2.dot(d);
     const double scale = c1.squaredNorm();
+    out.u = u;
     if (!(scale > 0.0) || !std::isfinite(h))
       return out;
     const bool definite = h > 1e-3 * scale;
@@ -118,6 +117,7 @@ PointProjection project_onto(const Vector3d& a, const Matrix3d& x, const Segment
     }
     previous = definite && !capped && t == 1.0 ? std::abs(step) : 0.0;
     u += t * step;
+    out.u = u;
     if (std::abs(u) > limit) {
       out.left = true;
       return out;
@@ -278,7 +278,12 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
     const Vector3d ta = control_A * basis_A.first_local(ua);
     const PointProjection proj = project_onto(a, control_B, basis_B, options);
     if (!proj.converged) {
-      out.failed += proj.left ? 0 : 1;
+      // A failure counts only where it may hide contact: the last iterate in the segment's
+      // range and within reach. Far from a segment, or beyond a curve's end (where the
+      // extended polynomial of an end segment folds back), the point is not this pair's.
+      if (!proj.left && std::abs(proj.u) <= 0.5 &&
+          (control_B * basis_B.values_local(proj.u) - a).norm() < radius_A + radius_B)
+        ++out.failed;
       continue;
     }
     if (!owns_projection(control_B, basis_B, proj.u, a))
@@ -286,6 +291,10 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
     const Vector3d b = control_B * basis_B.values_local(proj.u);
     const Vector3d tb = control_B * basis_B.first_local(proj.u);
     const double dist = (a - b).norm();
+    if (!(dist > 1e-14 * tb.norm())) {
+      ++out.failed; // the centre lines intersect: no normal
+      continue;
+    }
     ++out.owned;
     out.min_gap = std::min(out.min_gap, dist - reach);
     if (!(dist < reach) || !(sine2_of(ta, tb) < hi2))
@@ -399,6 +408,10 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
   line_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, law, all_angle, line,
                options);
   out.line_points = line.points;
+  // A Gauss point without a projection (or a normal) is a hole in the line contact: as for the
+  // point contact, the stage vetoes the step if the pair is or was in contact.
+  if (line.failed > 0)
+    out.status = ProjectionStatus::NotConverged;
   if (line.owned > 0 && !out.active) {
     // The smallest gap this pair sees (the run's clearance report and summary): the line's,
     // where the point contact was not evaluated or is a neighbour's.

@@ -180,6 +180,19 @@ TEST(LineContact, ParallelYarnsApartAreInactiveAndReportTheirGap) {
   EXPECT_EQ(r.line_points, 0);
 }
 
+TEST(LineContact, CentreLinesThatMeetLeaveNoNormalAndVetoTheStep) {
+  // B on A's centre line: no normal at the Gauss points; the pair says NotConverged, as the
+  // point contact does where the centre lines intersect, and the stage vetoes the step.
+  std::mt19937 rng(1);
+  const Curves c = make_curves(0.0, 0.0, 0.0, 0.0, rng);
+  static const LinearPenalty law(kEps);
+  SplineContactResult r;
+  all_angle_contact(curve().control_points(c.a, 1), curve().segment(1), kRadius,
+                    curve().control_points(c.b, 1), curve().segment(1), kRadius, {}, law, {}, r);
+  EXPECT_EQ(r.status, ProjectionStatus::NotConverged);
+  EXPECT_TRUE(r.residual.allFinite());
+}
+
 TEST(LineContact, ResidualAndTangentMatchFiniteDifferencesFromParallelToCrossing) {
   AllAngleOptions opt;
   opt.line_scale = 1.0 / (2 * kRadius);
