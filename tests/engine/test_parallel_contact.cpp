@@ -280,6 +280,9 @@ TEST(ParallelContact, TheDoubleHelixTwistsAFullTurn) {
   EXPECT_GT(std::abs(mid_angle), 150 * std::numbers::pi / 180);
   EXPECT_NEAR(std::hypot(mid.x(), mid.y()), kRadius, 0.1 * kRadius);
   EXPECT_GT(sim.contact()->active(), 25); // in contact along the whole length
+  // The contact spreads along the strands as they wind: no pair drops out on the way.
+  for (std::size_t k = 1; k < h.active.size(); ++k)
+    EXPECT_GE(h.active[k], h.active[k - 1]) << "increment " << k + 1;
 }
 
 /// Positions, reactions and contact figures after every increment, and the checkpoints.
