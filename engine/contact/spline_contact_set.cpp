@@ -66,6 +66,13 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
     options.self_contact = def.self_contact;
     d->search = std::make_unique<broadphase::CandidateSearch>(std::move(info), groups, options);
     d->law = make_interface_law(def.law);
+    if (def.line_contact &&
+        !(def.line_angle > 0 && def.line_angle < def.point_angle && def.point_angle <= 90 &&
+          def.gauss_points >= 1 && def.gauss_points <= 10 && def.line_penalty >= 0))
+      throw std::invalid_argument(fmt::format(
+          "contact '{}': expected 0 < line_angle < point_angle <= 90 degrees, gauss_points in "
+          "[1, 10] and line_penalty >= 0, found {}, {}, {} and {}",
+          def.name, def.line_angle, def.point_angle, def.gauss_points, def.line_penalty));
     d->line_contact = def.line_contact;
     const double degree = std::numbers::pi / 180;
     d->all_angle.line_sine = std::sin(def.line_angle * degree);

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <gtest/gtest.h>
 #include <numbers>
+#include <stdexcept>
 #include <tbb/global_control.h>
 #include <unistd.h>
 #include <vector>
@@ -283,6 +284,15 @@ TEST(ParallelContact, TheDoubleHelixTwistsAFullTurn) {
   // The contact spreads along the strands as they wind: no pair drops out on the way.
   for (std::size_t k = 1; k < h.active.size(); ++k)
     EXPECT_GE(h.active[k], h.active[k - 1]) << "increment " << k + 1;
+}
+
+TEST(ParallelContact, AModelWithBadAllAngleSettingsIsRefused) {
+  Model m = side_by_side(4, 1.0, true);
+  m.spline_contacts[0].line_angle = 30; // above point_angle
+  EXPECT_THROW(Simulation{m}, std::invalid_argument);
+  m.spline_contacts[0].line_angle = 10;
+  m.spline_contacts[0].gauss_points = 0;
+  EXPECT_THROW(Simulation{m}, std::invalid_argument);
 }
 
 /// Positions, reactions and contact figures after every increment, and the checkpoints.
