@@ -16,6 +16,7 @@
 #include <sstream>
 #include <tbb/global_control.h>
 #include <thread>
+#include <unistd.h>
 
 namespace {
 
@@ -35,8 +36,13 @@ std::atomic<bool> g_stop{false};
 // and the parallelism is TBB's (assembly, contact).
 extern "C" void openblas_set_num_threads(int) __attribute__((weak));
 
+// The first SIGINT or SIGTERM asks the run to stop: the solver looks at the flag between Newton
+// iterations and stages and drops the attempt in progress, and the files keep every completed
+// increment (exit 130). A second signal ends the process at once (_exit is async-signal-safe):
+// what the writer thread had flushed stays on disk, the rest is lost.
 extern "C" void on_signal(int) {
-  g_stop.store(true);
+  if (g_stop.exchange(true))
+    _exit(130);
 }
 
 std::string read_text(const std::filesystem::path& file) {

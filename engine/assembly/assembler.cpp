@@ -224,6 +224,16 @@ bool Assembler::ensure_couplings(const std::vector<ContactCoupling>& groups) {
   return true;
 }
 
+bool Assembler::set_couplings(std::vector<ContactCoupling> groups) {
+  std::sort(groups.begin(), groups.end());
+  groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
+  if (groups == couplings_)
+    return false;
+  couplings_ = std::move(groups);
+  build_pattern();
+  return true;
+}
+
 void Assembler::add_translation_block(const std::array<int, 6>& nodes,
                                       const Eigen::Matrix<double, 18, 18>& block) {
   double* values = matrix_.valuePtr();

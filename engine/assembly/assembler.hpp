@@ -67,6 +67,12 @@ public:
   /// rotations where the group asks for them). The pattern only grows, so it settles after the
   /// first contacts; returns true when it changed (the solver must analyse it again).
   bool ensure_couplings(const std::vector<ContactCoupling>& groups);
+  /// Makes the pattern hold exactly these contact couplings besides the beams': couplings no
+  /// candidate needs any more are dropped, so that the pattern (and the factorisation's fill)
+  /// follows the contact candidates down as well as up. Returns true when it changed.
+  bool set_couplings(std::vector<ContactCoupling> groups);
+  /// The contact couplings the pattern holds, sorted, without repeats.
+  const std::vector<ContactCoupling>& couplings() const { return couplings_; }
   /// Counts pattern rebuilds; a solver analyses again when it changes.
   int pattern_version() const { return pattern_version_; }
 

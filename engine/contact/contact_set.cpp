@@ -87,6 +87,7 @@ ContactSummary ContactStage::summary() const {
     out.potential += s.potential;
     out.total_force += s.total_force;
     out.min_gap = std::min(out.min_gap, s.min_gap);
+    out.active_set = out.active_set * 0x9e3779b97f4a7c15ull + s.active_set;
   }
   return out;
 }

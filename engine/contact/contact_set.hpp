@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -40,7 +41,17 @@ struct ContactSummary {
   /// Smallest signed gap over the pairs whose projection converged in range, m; +infinity when
   /// there is none. Before loading it is the clearance the formulation sees.
   double min_gap = 0;
+  /// Fingerprint of which pairs are active (0 when none): it changes when a pair opens or
+  /// closes, so the Newton iteration can tell a step that crossed the contact's kink.
+  std::uint64_t active_set = 0;
 };
+
+/// Folds an active pair (definition, first, second) into ContactSummary::active_set.
+inline std::uint64_t fold_active_pair(std::uint64_t h, int definition, int first, int second) {
+  for (int v : {definition, first, second})
+    h = (h ^ static_cast<std::uint64_t>(static_cast<std::uint32_t>(v))) * 0x100000001b3ull;
+  return h;
+}
 
 /// One contact formulation's stage over all of its definitions in a model.
 class ContactSet {

@@ -315,6 +315,8 @@ void SplineContactSet::summarise() {
     if (!r.active)
       continue;
     ++summary_.active;
+    summary_.active_set =
+        fold_active_pair(summary_.active_set | 1, w.definition, w.pair.first, w.pair.second);
     summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
     summary_.max_force = std::max(summary_.max_force, r.force);
     summary_.potential += r.potential;

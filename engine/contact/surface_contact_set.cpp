@@ -183,6 +183,8 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
       summary_.min_gap = std::min(summary_.min_gap, r.gap);
     if (!r.active)
       continue;
+    summary_.active_set =
+        fold_active_pair(summary_.active_set | 1, w.definition, w.pair.first, w.pair.second);
     // Contact points: a contact near a node, held by two pairs, counts once in all (their
     // shares sum to one).
     active_share += w.factor * r.share;

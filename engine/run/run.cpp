@@ -304,6 +304,11 @@ public:
                                     r.time, r.increment, options_.stop_after));
   }
 
+  void on_notice(const Simulation&, const std::string& what) override {
+    clear_line();
+    fmt::print(stderr, "note: {}\n", what);
+  }
+
   void on_attempt_failed(const Simulation&, double time, double dt,
                          const std::string& why) override {
     if (options_.progress) {

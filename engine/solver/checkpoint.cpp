@@ -29,6 +29,8 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.state = state_;
   c.reactions = reactions_;
   c.load_n = load_n_;
+  c.rate_increment = rate_increment_;
+  c.rate_dt = rate_dt_;
   c.external_work = external_work_;
   c.prescribed_work = prescribed_work_;
   c.damping_work = damping_work_;
@@ -41,8 +43,8 @@ SimulationCheckpoint Simulation::checkpoint() const {
     c.contact = contact_->spline()->snapshot();
   if (contact_ && contact_->surface())
     c.surface_contact = contact_->surface()->snapshot();
-  c.pattern_groups = pattern_groups_;
-  c.pattern_calls = pattern_calls_;
+  c.pattern_groups = assembler_->couplings();
+  c.pattern_calls = {static_cast<int>(c.pattern_groups.size())};
   c.coupled_candidates = coupled_candidates_;
   return c;
 }
@@ -66,6 +68,7 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   require_columns("gauss", static_cast<Eigen::Index>(s.gauss.size()), ne);
   require_columns("reactions", from.reactions.cols(), n);
   require_columns("load_n", from.load_n.cols(), n);
+  require_columns("rate_increment", from.rate_increment.cols(), n);
   const bool spline = contact_ && contact_->spline();
   if (from.contact.has_value() != spline)
     throw std::invalid_argument(fmt::format("checkpoint: {} spline contact, the model {}",
@@ -94,6 +97,8 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   state_.alpha.setZero(3, n);
   reactions_ = from.reactions;
   load_n_ = from.load_n;
+  rate_increment_ = from.rate_increment;
+  rate_dt_ = from.rate_dt;
   external_work_ = from.external_work;
   prescribed_work_ = from.prescribed_work;
   damping_work_ = from.damping_work;
@@ -120,19 +125,9 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
           throw std::invalid_argument(
               fmt::format("checkpoint: a contact coupling names node index {} of {}", node, n));
     assembler_->ensure_couplings(groups);
-    log_pattern_growth(groups);
     begin = end;
   }
   coupled_candidates_ = from.coupled_candidates;
-}
-
-void Simulation::log_pattern_growth(const std::vector<ContactCoupling>& groups) {
-  // A group met in an earlier growing call is in the pattern since: leaving it out of later calls
-  // changes nothing they add.
-  for (const auto& g : groups)
-    if (pattern_logged_.insert(g).second)
-      pattern_groups_.push_back(g);
-  pattern_calls_.push_back(static_cast<int>(pattern_groups_.size()));
 }
 
 } // namespace yarnsim

@@ -42,8 +42,12 @@ struct SimulationCheckpoint {
   double next_dt = 0; ///< s, the size the next implicit increment tries; 0: the step's initial
   /// The last converged increment (x = x_n and alpha = 0 between increments).
   State state;
-  Eigen::Matrix<double, 6, Eigen::Dynamic> reactions;              ///< 6 x n_nodes, N and N m
-  Eigen::Matrix<double, 6, Eigen::Dynamic> load_n;                 ///< external loads at state.time
+  Eigen::Matrix<double, 6, Eigen::Dynamic> reactions; ///< 6 x n_nodes, N and N m
+  Eigen::Matrix<double, 6, Eigen::Dynamic> load_n;    ///< external loads at state.time
+  /// The last increment's motion per node (m, rad) and its size (s; 0: none in this step), for
+  /// the rate predictor.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> rate_increment;
+  double rate_dt = 0;
   double external_work = 0, prescribed_work = 0, damping_work = 0; ///< J
   double energy_reference = 0;                                     ///< J
   int total_iterations = 0;
@@ -52,9 +56,10 @@ struct SimulationCheckpoint {
   std::optional<SplineContactSet::Snapshot> contact; ///< when the model has spline contact
   /// When the model has surface contact.
   std::optional<SurfaceContactSet::Snapshot> surface_contact;
-  /// Contact couplings of each call that grew the tangent's pattern, in order (each group once,
-  /// at its first call): replayed through Assembler::ensure_couplings they rebuild the same
-  /// pattern, hence the same ordering and factorisation. pattern_calls[k] is the end of call k.
+  /// The contact couplings the tangent's pattern holds (Assembler::couplings), as calls of
+  /// Assembler::ensure_couplings on the beams' pattern (pattern_calls[k] is the end of call k;
+  /// Simulation::checkpoint writes one): they rebuild the same pattern, hence the same ordering
+  /// and factorisation.
   std::vector<ContactCoupling> pattern_groups;
   std::vector<int> pattern_calls;
   int coupled_candidates = -1; ///< contact candidate version the pattern holds

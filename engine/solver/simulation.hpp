@@ -22,6 +22,7 @@
 namespace yarnsim {
 
 struct SimulationCheckpoint; // checkpoint.hpp
+struct NewmarkCoefficients;  // engine/beam/nodal_terms.hpp
 struct ExplicitProgress;
 class CentralDifference; // central_difference.cpp
 
@@ -48,6 +49,16 @@ struct IncrementReport {
   /// |delta . r| of each Newton correction (J): the energy norm, insensitive to the scaling
   /// between stiff axial and soft bending modes.
   std::vector<double> energy_history;
+  /// Backtracking steps of the damped Newton (each one residual evaluation and, where the
+  /// contact allows it, a factorisation).
+  int line_search_steps = 0;
+  /// 1 when no damping made the corrections contract and Newton went on with full steps.
+  int damping_gave_up = 0;
+  /// Whether the increment started from the rate predictor (Simulation::attempt).
+  bool rate_predictor = false;
+  /// Accepted with a residual within its round-off floor but not within the tolerance asked.
+  bool at_floor = false;
+  double floor_relative = 0; ///< the floor relative to the residual's reference
 };
 
 class SimulationObserver {
@@ -57,6 +68,9 @@ public:
   /// An attempt failed and the step is halved; why says what failed.
   virtual void on_attempt_failed(const class Simulation&, double /*time*/, double /*dt*/,
                                  const std::string& /*why*/) {}
+  /// Something the user should know that does not stop the run (a tolerance that round-off
+  /// makes unreachable), said once.
+  virtual void on_notice(const class Simulation&, const std::string& /*what*/) {}
 };
 
 /// Wall time spent in each stage of the Newton iterations since the start of the run, s.
@@ -102,8 +116,17 @@ struct ExplicitStatus {
 
 struct SimulationOptions {
   LinearSolverKind linear_solver = LinearSolverKind::Auto;
-  /// Set from a signal handler; checked between increments.
+  /// Set from a signal handler; checked between Newton iterations and between their stages
+  /// (the attempt in progress is dropped) and between explicit increments.
   const std::atomic<bool>* stop_requested = nullptr;
+  /// Line search on each Newton correction (Simulation::attempt).
+  bool line_search = true;
+  /// Rate predictor: an increment starts from the last one's motion scaled to its size (within
+  /// a step) where that start has the smaller residual; false (the default): from the last
+  /// converged state. Measured (docs/performance.md): it saves iterations on the paper's 6 x 6
+  /// fabric (175 -> 150) but costs them on the 16 x 16 weave (323 -> 531, 3 -> 13 halvings) and
+  /// the double helix (1 -> 14 halvings), where extrapolated motions cross contact kinks.
+  bool predictor = false;
 };
 
 class Simulation {
@@ -173,14 +196,39 @@ private:
   /// Tries one increment from the converged state to time t_new. Returns an empty string on
   /// success, otherwise why it failed (the state is then restored).
   std::string attempt(const SolutionStep& step, double t_new, double dt, IncrementReport& report);
+  /// Residual, norms and references of one evaluation at the current configuration.
+  struct Evaluation {
+    std::string veto;      ///< why the contact stage or the norms reject the configuration
+    double ref_force = 0;  ///< N, largest nodal force of any kind
+    double ref_moment = 0; ///< N m
+    double r_force = 0;    ///< N, Euclidean norm of the force residual over the free equations
+    double r_moment = 0;   ///< N m
+    double relative = 0;   ///< max of the two relative to their references
+    int worst_dof = -1;    ///< global DOF with the largest scaled residual
+  };
+  /// Evaluates the residual (6 n_nodes, into residual; rhs_ = its negative over the free
+  /// equations) and, if want_tangent, the tangent into the assembler's matrix.
+  Evaluation evaluate(const SolutionStep& step, const NewmarkCoefficients& nm, double t_new,
+                      bool want_tangent, Eigen::VectorXd& residual);
+  /// Moves the free DOFs by s delta (delta over the free equations).
+  void move_along(const Eigen::VectorXd& delta, double s);
+  /// The start of an increment of size dt: the converged state (plus, with_rate, the last
+  /// increment's motion scaled to dt), then the prescribed values at t_new.
+  void predict(double t_new, double dt, bool with_rate);
+  /// Norm of a vector over the free equations, translations over the shortest element (m / m)
+  /// and rotations (rad): the damped Newton's measure of corrections.
+  double scaled_norm(const Eigen::VectorXd& v) const;
+  /// Drops the pattern's contact couplings that the current candidates do not need when they
+  /// are more than a quarter of those needed.
+  void prune_couplings();
+  bool stop_requested() const;
+  [[noreturn]] void throw_interrupted() const;
   void commit(const SolutionStep& step, double dt, double t_new);
   /// Runs explicit step `step_index` to its end time (central_difference.cpp).
   void run_explicit(int step_index, SimulationObserver* observer);
   friend class CentralDifference;
   /// The explicit integrator's state while an explicit step runs (central_difference.cpp).
   ExplicitProgress explicit_progress() const;
-  /// Records the couplings of a call that grew the pattern, for a restart (checkpoint.cpp).
-  void log_pattern_growth(const std::vector<ContactCoupling>& groups);
   void apply_prescribed(double t_new);
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
@@ -205,6 +253,14 @@ private:
   double energy_reference_ = 0; ///< J, balance at the start of the last explicit step
   ExplicitStatus explicit_status_;
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
+  /// Motion of the last converged increment of the step in progress, per node: displacement (m)
+  /// and rotation vector (rad), for the rate predictor; rate_dt_ its size, s (0: none yet).
+  Eigen::Matrix<double, 6, Eigen::Dynamic> rate_increment_;
+  double rate_dt_ = 0;
+  bool floor_reported_ = false;      ///< the round-off floor notice was given
+  Eigen::VectorXd damping_velocity_; ///< 6 n_nodes, stiffness damping's velocities
+  Eigen::VectorXd rhs_;              ///< minus the residual over the free equations
+  Eigen::VectorXd equation_weight_;  ///< per free equation: 1 / shortest element (m^-1) or 1
   int total_iterations_ = 0;
   StageTimes stage_times_;
   double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();
@@ -214,6 +270,7 @@ private:
   struct IterationData {
     Eigen::VectorXd* residual = nullptr; ///< 6 n_nodes
     StiffnessDamping damping;
+    bool want_tangent = true;
     std::string veto;      ///< why the contact stage vetoes the configuration
     double ref_force = 0;  ///< largest nodal internal force, N
     double ref_moment = 0; ///< largest nodal internal moment, N m
@@ -228,9 +285,6 @@ private:
   double next_dt_ = 0; ///< s, size of the next implicit increment; 0: the step's initial size
   const CentralDifference* explicit_ = nullptr;       ///< the explicit step running, if any
   std::unique_ptr<ExplicitProgress> resume_explicit_; ///< explicit step to continue, if any
-  std::vector<ContactCoupling> pattern_groups_;       ///< see SimulationCheckpoint
-  std::vector<int> pattern_calls_;
-  std::set<ContactCoupling> pattern_logged_;
 };
 
 } // namespace yarnsim

@@ -26,7 +26,7 @@ h5_root_attribute() { # file.h5 name
 
 # The "time" attributes of the groups under /steps, one a line, in group order.
 h5_step_times() { # file.h5
-  h5dump -w 0 -A -g /steps "$1" 2> /dev/null |
+  h5dump -w 0 -m %.17g -A -g /steps "$1" 2> /dev/null |
     awk '/ATTRIBUTE "time"/ { want = 1 } want && /\(0\):/ { print $2; want = 0 }'
 }
 
