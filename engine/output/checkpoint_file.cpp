@@ -14,8 +14,8 @@
 namespace yarnsim::output {
 namespace {
 
-constexpr const char* kFormat = "yarnsim checkpoint 2"; // 2: the rate predictor's increment
-constexpr std::size_t kSurfacePairValues = 22;          ///< columns of /surface_contact/pair_values
+constexpr const char* kFormat = "yarnsim checkpoint 1";
+constexpr std::size_t kSurfacePairValues = 22; ///< columns of /surface_contact/pair_values
 
 /// FNV-1a, 64 bits, over bytes.
 struct Fnv1a {
@@ -387,7 +387,6 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
     h5::write_double_attribute(root, "time", s.time);
     h5::write_int_attribute(root, "step", c.step);
     h5::write_double_attribute(root, "next_dt", c.next_dt);
-    h5::write_double_attribute(root, "rate_dt", c.rate_dt);
     h5::write_int_attribute(root, "results_steps", outputs.results_steps);
     h5::write_double_attribute(root, "external_work", c.external_work);
     h5::write_double_attribute(root, "prescribed_work", c.prescribed_work);
@@ -424,7 +423,6 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
     write_table(g, "gauss_kappa", gauss_kappa, 3);
     write_columns<6>(g, "reactions", c.reactions);
     write_columns<6>(g, "load_n", c.load_n);
-    write_columns<6>(g, "rate_increment", c.rate_increment);
     state.close();
 
     h5::Handle pattern = h5::create_group(root, "pattern");
@@ -486,7 +484,6 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
   s.time = h5::read_double_attribute(root, "time");
   c.step = h5::read_int_attribute(root, "step");
   c.next_dt = h5::read_double_attribute(root, "next_dt");
-  c.rate_dt = h5::read_double_attribute(root, "rate_dt");
   c.external_work = h5::read_double_attribute(root, "external_work");
   c.prescribed_work = h5::read_double_attribute(root, "prescribed_work");
   c.damping_work = h5::read_double_attribute(root, "damping_work");
@@ -522,7 +519,6 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
                                        Eigen::Map<const Eigen::Vector3d>(&gauss_kappa[3 * k])};
   c.reactions = read_columns<6>(g, "reactions", n);
   c.load_n = read_columns<6>(g, "load_n", n);
-  c.rate_increment = read_columns<6>(g, "rate_increment", n);
   s.x = s.x_n;
   s.alpha = Eigen::Matrix3Xd::Zero(3, n);
 

@@ -29,8 +29,6 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.state = state_;
   c.reactions = reactions_;
   c.load_n = load_n_;
-  c.rate_increment = rate_increment_;
-  c.rate_dt = rate_dt_;
   c.external_work = external_work_;
   c.prescribed_work = prescribed_work_;
   c.damping_work = damping_work_;
@@ -68,7 +66,6 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   require_columns("gauss", static_cast<Eigen::Index>(s.gauss.size()), ne);
   require_columns("reactions", from.reactions.cols(), n);
   require_columns("load_n", from.load_n.cols(), n);
-  require_columns("rate_increment", from.rate_increment.cols(), n);
   const bool spline = contact_ && contact_->spline();
   if (from.contact.has_value() != spline)
     throw std::invalid_argument(fmt::format("checkpoint: {} spline contact, the model {}",
@@ -97,8 +94,6 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   state_.alpha.setZero(3, n);
   reactions_ = from.reactions;
   load_n_ = from.load_n;
-  rate_increment_ = from.rate_increment;
-  rate_dt_ = from.rate_dt;
   external_work_ = from.external_work;
   prescribed_work_ = from.prescribed_work;
   damping_work_ = from.damping_work;

@@ -42,12 +42,8 @@ struct SimulationCheckpoint {
   double next_dt = 0; ///< s, the size the next implicit increment tries; 0: the step's initial
   /// The last converged increment (x = x_n and alpha = 0 between increments).
   State state;
-  Eigen::Matrix<double, 6, Eigen::Dynamic> reactions; ///< 6 x n_nodes, N and N m
-  Eigen::Matrix<double, 6, Eigen::Dynamic> load_n;    ///< external loads at state.time
-  /// The last increment's motion per node (m, rad) and its size (s; 0: none in this step), for
-  /// the rate predictor.
-  Eigen::Matrix<double, 6, Eigen::Dynamic> rate_increment;
-  double rate_dt = 0;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> reactions;              ///< 6 x n_nodes, N and N m
+  Eigen::Matrix<double, 6, Eigen::Dynamic> load_n;                 ///< external loads at state.time
   double external_work = 0, prescribed_work = 0, damping_work = 0; ///< J
   double energy_reference = 0;                                     ///< J
   int total_iterations = 0;

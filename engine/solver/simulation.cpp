@@ -146,7 +146,6 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
     for (int g = 0; g < 2; ++g)
       state_.gauss[e][g] = GaussState{assembler_->references()[e].Q0[g], Eigen::Vector3d::Zero()};
   reactions_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n);
-  rate_increment_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n);
   load_n_ = external_loads(0.0);
   graph_ = std::make_unique<IterationGraph>(*this);
   if (contact_) {
@@ -420,58 +419,19 @@ void Simulation::throw_interrupted() const {
       fmt::format("interrupted at t = {:.6g} s after increment {}", state_.time, state_.increment));
 }
 
-void Simulation::predict(double t_new, double dt, bool with_rate) {
-  const int n = state_.n_nodes();
-  state_.x = state_.x_n;
-  state_.alpha.setZero();
-  // Rate predictor: the last increment of this step, scaled to this one's size, on the free
-  // DOFs (translations added, rotations as the rotation vector scaled).
-  if (with_rate) {
-    const double s = dt / rate_dt_;
-    const std::vector<int>& eq = assembler_->equations();
-    for (int i = 0; i < n; ++i) {
-      for (int c = 0; c < 3; ++c)
-        if (eq[6 * i + c] >= 0)
-          state_.x(c, i) += s * rate_increment_(c, i);
-      const Eigen::Vector3d theta = s * rate_increment_.col(i).tail<3>();
-      const double angle = theta.norm();
-      if (angle == 0.0 || angle > 0.5 * std::numbers::pi)
-        continue;
-      // Rodrigues parameters 2 tan(angle / 2) e of the rotation vector theta.
-      const Eigen::Vector3d alpha = (2.0 * std::tan(0.5 * angle) / angle) * theta;
-      for (int c = 0; c < 3; ++c)
-        if (eq[6 * i + 3 + c] >= 0)
-          state_.alpha(c, i) = alpha(c);
-    }
-  }
-  apply_prescribed(t_new);
-}
-
 std::string Simulation::attempt(const SolutionStep& step, double t_new, double dt,
                                 IncrementReport& report) {
   const int n = state_.n_nodes();
   const NewmarkCoefficients nm(step.newmark_beta, step.newmark_gamma, dt);
   Eigen::VectorXd residual(6 * n);
-  // The start: the last increment's motion carried on (a fabric's crossings keep closing, its
-  // yarns keep moving), unless that start is further from equilibrium than the converged state
-  // (the chords of a rotating slender rod, extrapolated, stretch it: large axial forces), judged
-  // by the relative residual of both, evaluated without tangents.
-  const bool rate = options_.predictor && rate_dt_ > 0;
-  predict(t_new, dt, rate);
-  report.rate_predictor = rate;
-  if (rate) {
-    const Evaluation with_rate = evaluate(step, nm, t_new, false, residual);
-    predict(t_new, dt, false);
-    const Evaluation without = evaluate(step, nm, t_new, false, residual);
-    report.rate_predictor =
-        with_rate.veto.empty() && (!without.veto.empty() || with_rate.relative < without.relative);
-    if (report.rate_predictor)
-      predict(t_new, dt, true);
-  }
+  // Predictor: the converged state, then the prescribed values at t_new. (Carrying the last
+  // increment's motion on was measured and dropped: docs/performance.md.)
+  state_.x = state_.x_n;
+  state_.alpha.setZero();
+  apply_prescribed(t_new);
 
   report.residual_history.clear();
   report.energy_history.clear();
-  report.line_search_steps = 0;
   Eigen::VectorXd delta; // the Newton correction in use, over the free equations
   double delta_norm = 0; // its scaled norm
   double lambda = 1;     // damping: the fraction of delta applied
@@ -516,7 +476,6 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         return ev.veto;
       move_along(delta, next - lambda);
       lambda = next;
-      ++report.line_search_steps;
       continue;
     }
     const int worst_dof = ev.worst_dof;
@@ -618,16 +577,12 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       back = std::max(std::min(0.5 * lambda, 1 / h), 0.1 * lambda);
       // No damping makes the corrections contract: the damping gives up for this attempt and
       // Newton goes on with full steps from the point reached (the iteration limit decides).
-      if (back < kMinDamping) {
-        damping_gave_up = true;
-        ++report.damping_gave_up;
-      }
+      damping_gave_up = back < kMinDamping;
     }
     if (back < 1 && !damping_gave_up) {
       move_along(delta, back - lambda);
       lambda = back;
       next_lambda = std::min(1.0, 4 * lambda);
-      ++report.line_search_steps;
       continue;
     }
 
@@ -668,9 +623,7 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
         rotation_vector_of_rodrigues<double>(Eigen::Vector3d(state_.alpha.col(i)));
     external_work_ += 0.5 * (load.col(i) + load_n_.col(i)).head<3>().dot(du) +
                       0.5 * (load.col(i) + load_n_.col(i)).tail<3>().dot(dtheta);
-    rate_increment_.col(i) << du, dtheta;
   }
-  rate_dt_ = dt;
 
   for (std::size_t e = 0; e < state_.gauss.size(); ++e)
     state_.gauss[e] = beam_committed_history(assembler_->references()[e], state_.gauss[e],
@@ -715,7 +668,7 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
 void Simulation::run(SimulationObserver* observer) {
   double t = state_.time;
   // From the first step, or from where a checkpoint left off.
-  for (; step_ < static_cast<int>(model_.steps.size()); ++step_, next_dt_ = 0, rate_dt_ = 0) {
+  for (; step_ < static_cast<int>(model_.steps.size()); ++step_, next_dt_ = 0) {
     const std::size_t s = step_;
     const SolutionStep& step = model_.steps[s];
     if (step.type == StepType::Explicit) {

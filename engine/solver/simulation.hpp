@@ -14,7 +14,6 @@
 #include <atomic>
 #include <limits>
 #include <memory>
-#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -49,13 +48,6 @@ struct IncrementReport {
   /// |delta . r| of each Newton correction (J): the energy norm, insensitive to the scaling
   /// between stiff axial and soft bending modes.
   std::vector<double> energy_history;
-  /// Backtracking steps of the damped Newton (each one residual evaluation and, where the
-  /// contact allows it, a factorisation).
-  int line_search_steps = 0;
-  /// 1 when no damping made the corrections contract and Newton went on with full steps.
-  int damping_gave_up = 0;
-  /// Whether the increment started from the rate predictor (Simulation::attempt).
-  bool rate_predictor = false;
   /// Accepted with a residual within its round-off floor but not within the tolerance asked.
   bool at_floor = false;
   double floor_relative = 0; ///< the floor relative to the residual's reference
@@ -121,12 +113,6 @@ struct SimulationOptions {
   const std::atomic<bool>* stop_requested = nullptr;
   /// Line search on each Newton correction (Simulation::attempt).
   bool line_search = true;
-  /// Rate predictor: an increment starts from the last one's motion scaled to its size (within
-  /// a step) where that start has the smaller residual; false (the default): from the last
-  /// converged state. Measured (docs/performance.md): it saves iterations on the paper's 6 x 6
-  /// fabric (175 -> 150) but costs them on the 16 x 16 weave (323 -> 531, 3 -> 13 halvings) and
-  /// the double helix (1 -> 14 halvings), where extrapolated motions cross contact kinks.
-  bool predictor = false;
 };
 
 class Simulation {
@@ -212,9 +198,6 @@ private:
                       bool want_tangent, Eigen::VectorXd& residual);
   /// Moves the free DOFs by s delta (delta over the free equations).
   void move_along(const Eigen::VectorXd& delta, double s);
-  /// The start of an increment of size dt: the converged state (plus, with_rate, the last
-  /// increment's motion scaled to dt), then the prescribed values at t_new.
-  void predict(double t_new, double dt, bool with_rate);
   /// Norm of a vector over the free equations, translations over the shortest element (m / m)
   /// and rotations (rad): the damped Newton's measure of corrections.
   double scaled_norm(const Eigen::VectorXd& v) const;
@@ -253,14 +236,10 @@ private:
   double energy_reference_ = 0; ///< J, balance at the start of the last explicit step
   ExplicitStatus explicit_status_;
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
-  /// Motion of the last converged increment of the step in progress, per node: displacement (m)
-  /// and rotation vector (rad), for the rate predictor; rate_dt_ its size, s (0: none yet).
-  Eigen::Matrix<double, 6, Eigen::Dynamic> rate_increment_;
-  double rate_dt_ = 0;
-  bool floor_reported_ = false;      ///< the round-off floor notice was given
-  Eigen::VectorXd damping_velocity_; ///< 6 n_nodes, stiffness damping's velocities
-  Eigen::VectorXd rhs_;              ///< minus the residual over the free equations
-  Eigen::VectorXd equation_weight_;  ///< per free equation: 1 / shortest element (m^-1) or 1
+  bool floor_reported_ = false;                     ///< the round-off floor notice was given
+  Eigen::VectorXd damping_velocity_;                ///< 6 n_nodes, stiffness damping's velocities
+  Eigen::VectorXd rhs_;                             ///< minus the residual over the free equations
+  Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1
   int total_iterations_ = 0;
   StageTimes stage_times_;
   double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();

@@ -25,8 +25,6 @@ name = "element1"
 element = 1
 EOF
 
-now() { date +%s.%N; }
-elapsed() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.2f", b - a }'; }
 
 interrupt() { # signal
   local sig="$1" name="sig${1,,}"

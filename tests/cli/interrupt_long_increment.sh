@@ -25,8 +25,6 @@ sed -e "s/^elements = .*/elements = $elements/" \
     -e "s/^node = 33/node = $((2 * elements + 1))/" \
     "$repo/examples/rollup.toml" > long.toml
 
-now() { date +%s.%N; }
-elapsed() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.2f", b - a }'; }
 
 # Starts the run, waits until its first increment is on disk and the second has run for a
 # second, then sends the signal(s); sets $code and $took (s from the first signal to the exit).

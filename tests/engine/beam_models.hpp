@@ -23,6 +23,19 @@ inline Model straight_beam(const Eigen::Vector3d& from, const Eigen::Vector3d& t
   return m;
 }
 
+/// Appends the nodes and elements of `beam` to `m` (elements keep their section index);
+/// returns the index of beam's first node in m. Node sets and splines are the caller's.
+inline int append_beam(Model& m, const Model& beam) {
+  const int offset = static_cast<int>(m.nodes.size());
+  m.nodes.insert(m.nodes.end(), beam.nodes.begin(), beam.nodes.end());
+  for (BeamElement e : beam.elements) {
+    for (int& k : e.nodes)
+      k += offset;
+    m.elements.push_back(e);
+  }
+  return offset;
+}
+
 inline Section stiffness_section(double EA, double GA, double EI, double GJ, double rhoA = 0,
                                  Eigen::Vector3d rhoJ = Eigen::Vector3d::Zero()) {
   Section s;

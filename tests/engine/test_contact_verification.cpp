@@ -28,13 +28,7 @@ Crossing crossing_beams(double eps, bool clamped, int n_el) {
   Model bottom =
       test::straight_beam({0, -L / 2, 0}, {0, L / 2, 0}, n_el, s, Eigen::Vector3d::UnitX());
   Model m = top;
-  const int offset = static_cast<int>(m.nodes.size());
-  m.nodes.insert(m.nodes.end(), bottom.nodes.begin(), bottom.nodes.end());
-  for (BeamElement e : bottom.elements) {
-    for (int& k : e.nodes)
-      k += offset;
-    m.elements.push_back(e);
-  }
+  const int offset = test::append_beam(m, bottom);
   const int last = 2 * n_el;
   // One end of each beam is held in all translations, the other slides along the beam axis, so
   // no membrane force stiffens the beams (the closed form is for the linear beam).
@@ -187,16 +181,10 @@ TEST(ContactVerification, SlidingAcrossSegmentBoundariesKeepsTheForceContinuous)
   Model m = test::straight_beam({-1, 0, 0}, {1, 0, 0}, nA, s);
   for (auto& p : m.nodes)
     p.z() = rail_z(p.x());
-  const int offset = static_cast<int>(m.nodes.size());
   const double x0 = -0.3;
   Model b = test::straight_beam({x0, -0.1, 2 * r + rail_z(x0)}, {x0, 0.1, 2 * r + rail_z(x0)}, 4, s,
                                 Eigen::Vector3d::UnitX());
-  m.nodes.insert(m.nodes.end(), b.nodes.begin(), b.nodes.end());
-  for (BeamElement e : b.elements) {
-    for (int& k : e.nodes)
-      k += offset;
-    m.elements.push_back(e);
-  }
+  const int offset = test::append_beam(m, b);
   m.node_sets = {NodeSet{"rail", {}}, NodeSet{"b_ends", {offset, offset + 8}},
                  NodeSet{"b_start", {offset}}};
   for (int i = 0; i < offset; ++i)
@@ -277,15 +265,9 @@ TEST(ContactVerification, DroppedBeamDoesNotPassThroughAndGainsNoEnergy) {
   Section s = test::stiffness_section(E * A, E * A, E * I, E * I, rho * A,
                                       Eigen::Vector3d(rho * I, rho * I, 2 * rho * I));
   Model m = test::straight_beam({-0.5, 0, 0}, {0.5, 0, 0}, 16, s);
-  const int offset = static_cast<int>(m.nodes.size());
   Model b = test::straight_beam({0, -0.3, 2 * r + gap}, {0, 0.3, 2 * r + gap}, 8, s,
                                 Eigen::Vector3d::UnitX());
-  m.nodes.insert(m.nodes.end(), b.nodes.begin(), b.nodes.end());
-  for (BeamElement e : b.elements) {
-    for (int& k : e.nodes)
-      k += offset;
-    m.elements.push_back(e);
-  }
+  const int offset = test::append_beam(m, b);
   NodeSet fallers{"b", {}};
   for (int i = offset; i < static_cast<int>(m.nodes.size()); ++i)
     fallers.nodes.push_back(i);

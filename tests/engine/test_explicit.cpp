@@ -244,17 +244,10 @@ Model contact_mat(int nx, int ny, int n_el) {
   NodeSet ends{"ends", {}}, top{"top", {}};
   auto add_beam = [&](const Eigen::Vector3d& from, const Eigen::Vector3d& to,
                       const Eigen::Vector3d& ref, const std::string& name) {
-    const int offset = static_cast<int>(m.nodes.size());
-    Model b = test::straight_beam(from, to, n_el, s, ref);
-    m.nodes.insert(m.nodes.end(), b.nodes.begin(), b.nodes.end());
+    const int offset = test::append_beam(m, test::straight_beam(from, to, n_el, s, ref));
     Spline spline{name, {}, r};
     for (int i = 0; i <= 2 * n_el; ++i)
       spline.nodes.push_back(offset + i);
-    for (BeamElement e : b.elements) {
-      for (int& k : e.nodes)
-        k += offset;
-      m.elements.push_back(e);
-    }
     m.splines.push_back(spline);
     return offset;
   };

@@ -37,13 +37,7 @@ Model two_beams(const Eigen::Vector3d& top_from, const Eigen::Vector3d& top_to,
                 const Eigen::Vector3d& reference) {
   Model m = test::straight_beam(top_from, top_to, n, rod(), reference);
   const Model bottom = test::straight_beam(bottom_from, bottom_to, n, rod(), reference);
-  const int offset = static_cast<int>(m.nodes.size());
-  m.nodes.insert(m.nodes.end(), bottom.nodes.begin(), bottom.nodes.end());
-  for (BeamElement e : bottom.elements) {
-    for (int& k : e.nodes)
-      k += offset;
-    m.elements.push_back(e);
-  }
+  const int offset = test::append_beam(m, bottom);
   m.node_sets.clear();
   NodeSet top{"top", {}}, bot{"bottom", {}};
   Spline a{"top", {}, kRadius}, b{"bottom", {}, kRadius};

@@ -5,6 +5,10 @@
 # The reader must not wait on, or take, a lock of a file another process may still be writing.
 export HDF5_USE_FILE_LOCKING=FALSE
 
+# Wall-clock seconds, and seconds elapsed since a time taken with now() (two decimals).
+now() { date +%s.%N; }
+elapsed() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.2f", b - a }'; }
+
 require_tools() { # tool...
   local t
   for t in "$@"; do
