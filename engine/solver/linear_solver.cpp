@@ -19,7 +19,30 @@ namespace yarnsim {
 
 namespace {
 
-/// UMFPACK: symbolic analysis (column ordering) once per pattern, numeric LU per iteration.
+/// OpenBLAS threads for the dense kernels of one factorisation: the run's limit (--threads)
+/// while it lasts, one outside it, so that OpenBLAS's pool and oneTBB's workers never spin at
+/// once. A no-op with another BLAS (the reference one runs on the calling thread).
+class BlasThreads {
+public:
+  BlasThreads() {
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(static_cast<int>(
+          tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
+  }
+  ~BlasThreads() {
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(1);
+  }
+  BlasThreads(const BlasThreads&) = delete;
+  BlasThreads& operator=(const BlasThreads&) = delete;
+};
+
+/// UMFPACK: symbolic analysis (column ordering) once per pattern, numeric LU per iteration. Its
+/// fronts go through the BLAS: with Debian's reference BLAS dgemm took 38 % of the surface k = 1
+/// case, with OpenBLAS (libopenblas0-pthread, scripts/setup) the case needs 43 % less CPU
+/// (docs/performance.md). OpenBLAS runs on one thread here: on two its dgemm rounds differently
+/// (the surface k = 1 case then differs between --threads 1 and 2 from the first increment), and
+/// the fronts of these tangents are too small to gain from it.
 class UmfpackSolver final : public LinearSolver {
 public:
   UmfpackSolver() {
@@ -29,6 +52,8 @@ public:
   }
   void analyze(const SparseMatrix& A) override { lu_.analyzePattern(A); }
   void factorize(const SparseMatrix& A) override {
+    if (openblas_set_num_threads)
+      openblas_set_num_threads(1);
     lu_.factorize(A);
     if (lu_.info() != Eigen::Success)
       throw LinearSolverError("UMFPACK LU factorisation failed (singular or non-finite tangent)");
@@ -106,14 +131,12 @@ public:
   }
   void factorize(const SparseMatrix& A) override {
     sym_.update(A);
-    // BLAS threads within the run's limit (--threads): the top separators of a large fabric are
-    // dense blocks of thousands of rows.
-    if (openblas_set_num_threads)
-      openblas_set_num_threads(static_cast<int>(
-          tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
-    llt_.factorize(sym_.matrix());
-    if (openblas_set_num_threads)
-      openblas_set_num_threads(1);
+    {
+      // BLAS threads within the run's limit: the top separators of a large fabric are dense
+      // blocks of thousands of rows.
+      const BlasThreads threads;
+      llt_.factorize(sym_.matrix());
+    }
     use_ldlt_ = llt_.info() != Eigen::Success;
     if (!use_ldlt_)
       return;

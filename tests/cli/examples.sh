@@ -7,7 +7,12 @@ rm -rf "$work"; mkdir -p "$work"
 fail=0
 for deck in "$repo"/examples/*.toml; do
   name=$(basename "$deck" .toml)
-  case "$name" in biaxial-*) continue ;; esac # the fabric studies are run by their own tests
+  case "$name" in
+    biaxial-*) continue ;; # the fabric studies are run by their own tests (cli.study, Biaxial.*)
+    # Run whole by ParallelContact.TheDoubleHelixTwistsAFullTurn, which checks where it ends:
+    # twice the same 200 increments (7 s in Release, over 3 minutes under the sanitizers).
+    double-helix) continue ;;
+  esac
   if ! "$yarnsim" run "$deck" -o "$work/$name" -q --threads 2 > "$work/$name.log" 2>&1; then
     echo "FAIL $name"; cat "$work/$name.log"; fail=1; continue
   fi
