@@ -23,6 +23,8 @@ base 's/^EA = .*/EA = "stiff"/' > wrong-type.toml
 check wrong-type 2 "wrong-type.toml:[0-9]*:[0-9]*:" "EA" "expected a number"
 base 's/^EA = .*/EA = -1.0/' > negative.toml
 check negative 2 "negative.toml:[0-9]*:[0-9]*:" "EA" "> 0"
+base 's/^moment = \(.*\)/moment = \1\naxes = "local"/' > bad-axes.toml
+check bad-axes 2 "bad-axes.toml:29:[0-9]*:" "loads\[0\].axes" 'expected "global" or "section", found "local"'
 base 's/node_set = "beam.end"/node_set = "beam.edn"/' > missing-set.toml
 check missing-set 2 "missing-set.toml:[0-9]*:[0-9]*:" "beam.edn"
 cat "$repo/examples/rollup.toml" > missing-node.toml
