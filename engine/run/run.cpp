@@ -9,6 +9,7 @@
 #include "engine/textile/biaxial.hpp"
 #include "yarnsim/version.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <deque>
@@ -207,22 +208,41 @@ public:
       curves_ = std::make_unique<BiaxialCurves>(model);
   }
 
+  /// The rows of the initial state (time 0, increment 0) in every CSV file the run writes, before
+  /// its first increment: the reference configuration, as the monitors read it then (zero
+  /// displacements, rotations, reactions and section forces; the contacts of the initial
+  /// configuration). Not called on a restart: its files hold these rows already.
+  void write_initial_rows(const Simulation& sim) {
+    auto out = std::make_shared<IncrementOutput>();
+    std::vector<double> curve_values;
+    csv_rows(sim, 0.0, curve_values, out->rows);
+    const bool energy = std::any_of(model_.steps.begin(), model_.steps.end(), [](const auto& s) {
+      return s.type == StepType::Explicit && s.energy_monitor;
+    });
+    if (energy) {
+      // The balance error is measured from its value at the start of an explicit step; before
+      // any step it is zero by that definition.
+      const EnergyBalance e = sim.energy_balance();
+      const double stored = e.internal + e.contact;
+      out->rows.push_back(
+          {&energy_csv_,
+           {0.0, e.kinetic, e.internal, e.contact, e.external_work, e.prescribed_work, e.damping,
+            0.0, stored > 0 ? e.kinetic / stored : 0.0}});
+    }
+    writer_.post([this, out] {
+      for (const CsvRow& row : out->rows)
+        csv_.write(row);
+    });
+  }
+
   void on_increment(const Simulation& sim, const IncrementReport& r) override {
     auto out = std::make_shared<IncrementOutput>();
-    monitors_.rows(sim, r.time, out->rows);
     std::vector<double> curve_values;
-    if (curves_) {
-      curve_values = curves_->values(sim);
-      out->rows.push_back(curves_->row(r.time, curve_values));
-    }
+    csv_rows(sim, r.time, curve_values, out->rows);
     const ContactStage* contact = sim.contact();
-    if (contact) {
-      out->rows.push_back({&contact_csv_,
-                           {r.time, double(contact->candidates()), double(contact->active()),
-                            contact->max_penetration(), contact->max_force()}});
+    if (contact)
       contact_status_ = fmt::format("  contacts {}  max penetration {:.3g} m", contact->active(),
                                     contact->max_penetration());
-    }
     const SolutionStep& step = model_.steps[r.step];
     // Energy monitor of explicit steps (docs/input.md, "Explicit steps").
     if (step.type == StepType::Explicit && options_.progress && r.step != explicit_reported_) {
@@ -332,6 +352,21 @@ public:
 
 private:
   static constexpr std::chrono::seconds kCheckpointInterval{1};
+
+  /// The rows of the monitors, curves.csv and contact.csv for the simulation's last converged
+  /// state at time (s); curve_values gets the biaxial reading when there is a test.
+  void csv_rows(const Simulation& sim, double time, std::vector<double>& curve_values,
+                std::vector<CsvRow>& rows) const {
+    monitors_.rows(sim, time, rows);
+    if (curves_) {
+      curve_values = curves_->values(sim);
+      rows.push_back(curves_->row(time, curve_values));
+    }
+    if (const ContactStage* contact = sim.contact())
+      rows.push_back({&contact_csv_,
+                      {time, double(contact->candidates()), double(contact->active()),
+                       contact->max_penetration(), contact->max_force()}});
+  }
 
   /// On the writer thread, after the output of the increment it was taken at.
   void write_checkpoint(const SimulationCheckpoint& checkpoint) {
@@ -491,6 +526,8 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
   // Declared after the files its tasks write: destroyed (drained) before them.
   output::SerialWriter writer;
   RunObserver observer(model, options, deck_hash, results, monitors, csv, writer);
+  if (!restart)
+    observer.write_initial_rows(sim);
   // Every completed increment on disk before the files are closed; an error of the writer wins
   // over the reason the run stopped, since the files are then incomplete.
   auto drain = [&writer, &observer]() -> std::string {
