@@ -72,8 +72,8 @@ int main(int argc, char** argv) {
   run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   run->add_option("--linear-solver", solver,
                   "Sparse direct solver: auto (default: ldlt unless the model has applied "
-                  "moments), lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
-      ->check(CLI::IsMember({"auto", "lu", "ldlt", "eigen-lu"}));
+                  "moments), lu (UMFPACK) or ldlt (symmetric part)")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
   std::string restart;
   int stop_after = 0;
@@ -99,8 +99,8 @@ int main(int argc, char** argv) {
   study
       ->add_option("--linear-solver", solver,
                    "Sparse direct solver: auto (default: ldlt unless the model has applied "
-                   "moments), lu (UMFPACK), ldlt (symmetric part) or eigen-lu")
-      ->check(CLI::IsMember({"auto", "lu", "ldlt", "eigen-lu"}));
+                   "moments), lu (UMFPACK) or ldlt (symmetric part)")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt"}));
   study->add_flag("--quiet,-q", quiet, "No progress line");
 
   try {

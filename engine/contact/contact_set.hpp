@@ -28,6 +28,14 @@ struct ContactPoint {
   Eigen::Vector3d normal;   ///< from B to A
   double gap = 0;           ///< signed gap, m; negative: penetration
   double force = 0;         ///< normal force, N
+  // What the point lies on: the definition and the two segments of its pair (A, B).
+  bool surface = false; ///< a surface contact (Model::surface_contacts), else a spline contact
+  int definition = -1;  ///< index into Model::spline_contacts or Model::surface_contacts
+  /// Index into Model::splines (spline contact) or Model::surfaces (surface contact).
+  std::array<int, 2> body{-1, -1};
+  /// Spline contact: the segment along the spline (0-based; segment i runs over the spline's
+  /// control points i, i + 1, i + 2). Surface contact: the element (index into Model::elements).
+  std::array<int, 2> segment{-1, -1};
 };
 
 /// Figures of the last evaluation, over all its pairs.

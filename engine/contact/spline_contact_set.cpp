@@ -226,10 +226,19 @@ void SplineContactSet::commit() {
 
 std::vector<ContactPoint> SplineContactSet::points() const {
   std::vector<ContactPoint> out;
-  for (const Work& w : work_)
-    if (w.result.active)
-      out.push_back({0.5 * (w.result.point_A + w.result.point_B), w.result.normal, w.result.gap,
-                     w.result.force});
+  for (const Work& w : work_) {
+    if (!w.result.active)
+      continue;
+    const Definition& d = *definitions_[w.definition];
+    ContactPoint& p = out.emplace_back();
+    p.position = 0.5 * (w.result.point_A + w.result.point_B);
+    p.normal = w.result.normal;
+    p.gap = w.result.gap;
+    p.force = w.result.force;
+    p.definition = w.definition;
+    p.body = {d.spline[w.pair.first], d.spline[w.pair.second]};
+    p.segment = {d.segment[w.pair.first], d.segment[w.pair.second]};
+  }
   return out;
 }
 

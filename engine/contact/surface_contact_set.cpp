@@ -312,10 +312,22 @@ void SurfaceContactSet::commit() {
 
 std::vector<ContactPoint> SurfaceContactSet::points() const {
   std::vector<ContactPoint> out;
-  for (const Work& w : work_)
-    if (w.result.active)
-      out.push_back({0.5 * (w.result.point_A + w.result.point_B), w.result.normal, w.result.gap,
-                     w.factor * w.result.force});
+  for (const Work& w : work_) {
+    if (!w.result.active)
+      continue;
+    const Definition& d = *definitions_[w.definition];
+    ContactPoint& p = out.emplace_back();
+    p.position = 0.5 * (w.result.point_A + w.result.point_B);
+    p.normal = w.result.normal;
+    p.gap = w.result.gap;
+    p.force = w.factor * w.result.force;
+    p.surface = true;
+    p.definition = w.definition;
+    const int a = d.surface[w.pair.first], b = d.surface[w.pair.second];
+    p.body = {a, b};
+    p.segment = {model_.surfaces[a].elements[d.position[w.pair.first]],
+                 model_.surfaces[b].elements[d.position[w.pair.second]]};
+  }
   return out;
 }
 

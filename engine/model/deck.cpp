@@ -124,8 +124,8 @@ constexpr KeySpec kPrescribedKeys[] = {
 constexpr TableSpec kPrescribed{"[[prescribed]]", kPrescribedKeys};
 
 constexpr KeySpec kLoadKeys[] = {
-    {"node_set", Type::String, kRequired}, {"force", Type::Vector3},   {"moment", Type::Vector3},
-    {"follower", Type::Boolean},           {"table", Type::TimeTable},
+    {"node_set", Type::String, kRequired}, {"force", Type::Vector3}, {"moment", Type::Vector3},
+    {"follower", Type::Boolean},           {"axes", Type::String},   {"table", Type::TimeTable},
 };
 constexpr TableSpec kLoad{"[[loads]]", kLoadKeys};
 
@@ -818,6 +818,18 @@ private:
       if (load.follower_moment && !t.present("moment"))
         t.error("follower", "expected a 'moment' for follower = true (only moments follow the "
                             "node), found none");
+      if (const auto axes = t.string("axes")) {
+        if (*axes == "section") {
+          load.axes = LoadAxes::Section;
+        } else if (*axes != "global") {
+          static constexpr std::string_view kAxes[] = {"global", "section"};
+          const std::string_view suggestion = closest(*axes, kAxes);
+          t.error("axes", fmt::format("expected \"global\" or \"section\", found \"{}\"{}", *axes,
+                                      suggestion.empty()
+                                          ? std::string()
+                                          : fmt::format("; did you mean \"{}\"?", suggestion)));
+        }
+      }
       if (auto table = t.time_table("table"))
         load.factor = *table;
       model_.loads.push_back(std::move(load));

@@ -86,14 +86,25 @@ struct PrescribedMotion {
   std::optional<std::array<TimeTable, 3>> rotation;
 };
 
-/// Nodal load on every node of a set: force (N, dead) and moment (N m) times a time table.
-/// A follower moment rotates with the node (given in the node's reference triad).
+/// The axes a nodal load's components are given in.
+enum class LoadAxes {
+  Global, ///< x, y, z
+  /// The node's section axes e1, e2, e3 in the reference configuration (e3 along the beam, e1
+  /// from the element's reference vector): the columns of the node's reference triad, taken from
+  /// the first element that holds the node.
+  Section
+};
+
+/// Nodal load on every node of a set: force (N, dead) and moment (N m) times a time table, both
+/// with components along `axes` in the reference configuration. A dead load keeps that
+/// direction; a follower moment rotates with the node from it.
 struct NodalLoad {
   int node_set = 0;
   Eigen::Vector3d force = Eigen::Vector3d::Zero();
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();
   bool follower_moment = false;
   TimeTable factor = TimeTable::constant(1.0);
+  LoadAxes axes = LoadAxes::Global;
 };
 
 enum class StepType { Static, Dynamic, Explicit };

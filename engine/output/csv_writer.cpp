@@ -94,7 +94,21 @@ void CsvWriter::row(std::span<const double> values) {
   if (values.size() != columns_)
     throw std::invalid_argument(fmt::format("csv: row of {} values for the {} columns of {}",
                                             values.size(), columns_, path_.string()));
-  std::string line = fmt::format("{}\n", fmt::join(values, ","));
+  write_line(fmt::format("{}\n", fmt::join(values, ",")));
+}
+
+void CsvWriter::row(std::span<const std::string> cells) {
+  if (cells.size() != columns_)
+    throw std::invalid_argument(fmt::format("csv: row of {} cells for the {} columns of {}",
+                                            cells.size(), columns_, path_.string()));
+  for (const std::string& cell : cells)
+    if (cell.find_first_of(",\"\r\n") != std::string::npos)
+      throw std::invalid_argument(fmt::format(
+          "csv: cell '{}' for {} contains a comma, quote or line break", cell, path_.string()));
+  write_line(fmt::format("{}\n", fmt::join(cells, ",")));
+}
+
+void CsvWriter::write_line(const std::string& line) {
   out_ << line << std::flush;
   if (!out_)
     throw std::runtime_error(fmt::format("csv: cannot write to {}", path_.string()));

@@ -29,6 +29,10 @@ public:
   /// to the operating system. Throws std::invalid_argument if values.size() differs from the
   /// number of columns, std::runtime_error if the write fails.
   void row(std::span<const double> values);
+  /// Appends one row of cells already formatted (numbers, names) and flushes it. Throws
+  /// std::invalid_argument if cells.size() differs from the number of columns or a cell contains
+  /// a comma, quote or line break, std::runtime_error if the write fails.
+  void row(std::span<const std::string> cells);
 
   const std::filesystem::path& path() const { return path_; }
   std::size_t columns() const { return columns_; }
@@ -36,6 +40,8 @@ public:
   long rows() const { return rows_; }
 
 private:
+  void write_line(const std::string& line);
+
   std::filesystem::path path_;
   std::size_t columns_ = 0;
   long rows_ = 0;

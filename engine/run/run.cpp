@@ -9,6 +9,7 @@
 #include "engine/textile/biaxial.hpp"
 #include "yarnsim/version.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <deque>
@@ -38,10 +39,15 @@ struct CsvFile {
   std::vector<std::string> columns;
 };
 
-/// A row for a CSV file, computed by the solver thread and written by the writer.
+/// A row for a CSV file, computed by the solver thread and written by the writer: numbers, or
+/// cells already formatted when the row holds names (cells not empty).
 struct CsvRow {
+  CsvRow(const CsvFile* f, std::vector<double> v) : file(f), values(std::move(v)) {}
+  CsvRow(const CsvFile* f, std::vector<std::string> c) : file(f), cells(std::move(c)) {}
+
   const CsvFile* file;
   std::vector<double> values;
+  std::vector<std::string> cells;
 };
 
 /// The CSV files of a run, each created on its first row; a restart goes on with those the
@@ -64,7 +70,10 @@ public:
 
   void write(const CsvRow& row) {
     open(*row.file);
-    files_.at(row.file->name)->row(row.values);
+    if (row.cells.empty())
+      files_.at(row.file->name)->row(row.values);
+    else
+      files_.at(row.file->name)->row(row.cells);
   }
 
   /// Rows per file, for the checkpoint.
@@ -185,6 +194,47 @@ private:
   CsvFile file_;
 };
 
+/// contact_points.csv: a row per active contact point, in the contact stage's order (spline
+/// contacts, then surface contacts; by definition, then by pair), so the file does not depend on
+/// the thread count.
+class ContactPointsFile {
+public:
+  explicit ContactPointsFile(const Model& model) : model_(model) {
+    file_.name = "contact_points.csv";
+    file_.columns = {"increment [-]", "time [s]", "contact", "a",     "a_segment [-]", "b",
+                     "b_segment [-]", "x [m]",    "y [m]",   "z [m]", "gap [m]",       "force [N]",
+                     "nx [-]",        "ny [-]",   "nz [-]"};
+  }
+
+  const CsvFile& file() const { return file_; }
+
+  /// The rows of the active contact points of the last converged state of increment (time s).
+  /// Segments are numbered from 1: along the spline for spline contact, the deck's element
+  /// number for surface contact.
+  void rows(const ContactStage& contact, int increment, double time,
+            std::vector<CsvRow>& out) const {
+    for (const ContactPoint& p : contact.points()) {
+      const std::string& definition = p.surface ? model_.surface_contacts[p.definition].name
+                                                : model_.spline_contacts[p.definition].name;
+      auto body = [&](int k) -> const std::string& {
+        return p.surface ? model_.surfaces[p.body[k]].name : model_.splines[p.body[k]].name;
+      };
+      auto number = [](double v) { return fmt::format("{}", v); };
+      out.emplace_back(&file_, std::vector<std::string>{
+                                   fmt::format("{}", increment), number(time), definition, body(0),
+                                   fmt::format("{}", p.segment[0] + 1), body(1),
+                                   fmt::format("{}", p.segment[1] + 1), number(p.position.x()),
+                                   number(p.position.y()), number(p.position.z()), number(p.gap),
+                                   number(p.force), number(p.normal.x()), number(p.normal.y()),
+                                   number(p.normal.z())});
+    }
+  }
+
+private:
+  const Model& model_;
+  CsvFile file_;
+};
+
 /// Everything a completed increment writes, computed by the solver thread.
 struct IncrementOutput {
   std::vector<CsvRow> rows;
@@ -197,32 +247,51 @@ struct IncrementOutput {
 class RunObserver final : public SimulationObserver {
 public:
   RunObserver(const Model& model, const RunOptions& options, const std::string& deck_hash,
-              output::ResultsFile& results, const Monitors& monitors, CsvFiles& csv,
-              output::SerialWriter& writer)
+              output::ResultsFile& results, const Monitors& monitors,
+              const ContactPointsFile& contact_points, CsvFiles& csv, output::SerialWriter& writer)
       : model_(model), options_(options), deck_hash_(deck_hash), results_(results),
         monitors_(monitors), csv_(csv), writer_(writer), tty_(isatty(fileno(stderr))),
-        start_(Clock::now()), last_print_(start_) {
+        start_(Clock::now()), last_print_(start_), contact_points_(contact_points) {
     t_end_ = model.steps.back().end_time;
     if (model.biaxial)
       curves_ = std::make_unique<BiaxialCurves>(model);
   }
 
+  /// The rows of the initial state (time 0, increment 0) in every CSV file the run writes, before
+  /// its first increment: the reference configuration, as the monitors read it then (zero
+  /// displacements, rotations, reactions and section forces; the contacts of the initial
+  /// configuration). Not called on a restart: its files hold these rows already.
+  void write_initial_rows(const Simulation& sim) {
+    auto out = std::make_shared<IncrementOutput>();
+    std::vector<double> curve_values;
+    csv_rows(sim, 0, 0.0, curve_values, out->rows);
+    const bool energy = std::any_of(model_.steps.begin(), model_.steps.end(), [](const auto& s) {
+      return s.type == StepType::Explicit && s.energy_monitor;
+    });
+    if (energy) {
+      // The balance error is measured from its value at the start of an explicit step; before
+      // any step it is zero by that definition.
+      const EnergyBalance e = sim.energy_balance();
+      const double stored = e.internal + e.contact;
+      out->rows.push_back(
+          {&energy_csv_,
+           {0.0, e.kinetic, e.internal, e.contact, e.external_work, e.prescribed_work, e.damping,
+            0.0, stored > 0 ? e.kinetic / stored : 0.0}});
+    }
+    writer_.post([this, out] {
+      for (const CsvRow& row : out->rows)
+        csv_.write(row);
+    });
+  }
+
   void on_increment(const Simulation& sim, const IncrementReport& r) override {
     auto out = std::make_shared<IncrementOutput>();
-    monitors_.rows(sim, r.time, out->rows);
     std::vector<double> curve_values;
-    if (curves_) {
-      curve_values = curves_->values(sim);
-      out->rows.push_back(curves_->row(r.time, curve_values));
-    }
+    csv_rows(sim, r.increment, r.time, curve_values, out->rows);
     const ContactStage* contact = sim.contact();
-    if (contact) {
-      out->rows.push_back({&contact_csv_,
-                           {r.time, double(contact->candidates()), double(contact->active()),
-                            contact->max_penetration(), contact->max_force()}});
+    if (contact)
       contact_status_ = fmt::format("  contacts {}  max penetration {:.3g} m", contact->active(),
                                     contact->max_penetration());
-    }
     const SolutionStep& step = model_.steps[r.step];
     // Energy monitor of explicit steps (docs/input.md, "Explicit steps").
     if (step.type == StepType::Explicit && options_.progress && r.step != explicit_reported_) {
@@ -333,6 +402,24 @@ public:
 private:
   static constexpr std::chrono::seconds kCheckpointInterval{1};
 
+  /// The rows of the monitors, curves.csv, contact.csv and contact_points.csv for the
+  /// simulation's last converged state, increment at time (s); curve_values gets the biaxial
+  /// reading when there is a test.
+  void csv_rows(const Simulation& sim, int increment, double time,
+                std::vector<double>& curve_values, std::vector<CsvRow>& rows) const {
+    monitors_.rows(sim, time, rows);
+    if (curves_) {
+      curve_values = curves_->values(sim);
+      rows.push_back(curves_->row(time, curve_values));
+    }
+    if (const ContactStage* contact = sim.contact()) {
+      rows.push_back({&contact_csv_,
+                      {time, double(contact->candidates()), double(contact->active()),
+                       contact->max_penetration(), contact->max_force(), contact->total_force()}});
+      contact_points_.rows(*contact, increment, time, rows);
+    }
+  }
+
   /// On the writer thread, after the output of the increment it was taken at.
   void write_checkpoint(const SimulationCheckpoint& checkpoint) {
     output::write_checkpoint(options_.output_dir, checkpoint,
@@ -381,9 +468,10 @@ private:
   Clock::time_point start_, last_print_;
   double t_end_ = 0;
   long iterations_ = 0;
-  const CsvFile contact_csv_{
-      "contact.csv",
-      {"time [s]", "candidates [-]", "active [-]", "max_penetration [m]", "max_force [N]"}};
+  const CsvFile contact_csv_{"contact.csv",
+                             {"time [s]", "candidates [-]", "active [-]", "max_penetration [m]",
+                              "max_force [N]", "total_force [N]"}};
+  const ContactPointsFile& contact_points_;
   const CsvFile energy_csv_{"energy.csv",
                             {"time [s]", "kinetic [J]", "internal [J]", "contact [J]",
                              "external_work [J]", "prescribed_work [J]", "damping [J]",
@@ -485,12 +573,18 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
                restart ? restart->outputs.csv_rows : std::map<std::string, long>{});
   for (const CsvFile& file : monitors.files())
     csv.open(file);
+  // contact_points.csv exists with its header even while no contact is active.
+  const ContactPointsFile contact_points(model);
+  if (sim.contact())
+    csv.open(contact_points.file());
   if (restart)
     fmt::print(stderr, "restarting from {} after increment {} at t = {:.6g} s\n",
                options.restart_from.string(), sim.state().increment, sim.state().time);
   // Declared after the files its tasks write: destroyed (drained) before them.
   output::SerialWriter writer;
-  RunObserver observer(model, options, deck_hash, results, monitors, csv, writer);
+  RunObserver observer(model, options, deck_hash, results, monitors, contact_points, csv, writer);
+  if (!restart)
+    observer.write_initial_rows(sim);
   // Every completed increment on disk before the files are closed; an error of the writer wins
   // over the reason the run stopped, since the files are then incomplete.
   auto drain = [&writer, &observer]() -> std::string {

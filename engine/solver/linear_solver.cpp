@@ -6,7 +6,6 @@
 #include <Eigen/CholmodSupport>
 #include <Eigen/MetisSupport>
 #include <Eigen/SparseCholesky>
-#include <Eigen/SparseLU>
 #include <Eigen/UmfPackSupport>
 #include <tbb/global_control.h>
 #include <vector>
@@ -63,21 +62,6 @@ public:
 
 private:
   Eigen::UmfPackLU<SparseMatrix> lu_;
-};
-
-class SparseLUSolver final : public LinearSolver {
-public:
-  void analyze(const SparseMatrix& A) override { lu_.analyzePattern(A); }
-  void factorize(const SparseMatrix& A) override {
-    lu_.factorize(A);
-    if (lu_.info() != Eigen::Success)
-      throw LinearSolverError("sparse LU factorisation failed: " + lu_.lastErrorMessage());
-  }
-  Eigen::VectorXd solve(const Eigen::VectorXd& b) override { return lu_.solve(b); }
-  std::string name() const override { return "eigen-lu"; }
-
-private:
-  Eigen::SparseLU<SparseMatrix, Eigen::MetisOrdering<int>> lu_;
 };
 
 /// The symmetric part (A + A^T) / 2 of a structurally symmetric matrix, refreshed in place: the
@@ -189,8 +173,6 @@ std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind) {
     throw std::invalid_argument("make_linear_solver: resolve 'auto' against the model first");
   if (kind == LinearSolverKind::LU)
     return std::make_unique<UmfpackSolver>();
-  if (kind == LinearSolverKind::EigenLU)
-    return std::make_unique<SparseLUSolver>();
   if (kind == LinearSolverKind::Cholmod)
     return std::make_unique<CholmodSolver>();
   return std::make_unique<SymmetricLDLTSolver>();
@@ -203,12 +185,10 @@ LinearSolverKind linear_solver_kind_from(const std::string& name) {
     return LinearSolverKind::LU;
   if (name == "ldlt")
     return LinearSolverKind::LDLTSymmetric;
-  if (name == "eigen-lu")
-    return LinearSolverKind::EigenLU;
   if (name == "cholmod")
     return LinearSolverKind::Cholmod;
   throw std::invalid_argument("unknown linear solver '" + name +
-                              "' (expected 'auto', 'lu', 'ldlt', 'eigen-lu' or 'cholmod')");
+                              "' (expected 'auto', 'lu', 'ldlt' or 'cholmod')");
 }
 
 } // namespace yarnsim

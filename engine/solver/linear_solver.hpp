@@ -24,7 +24,6 @@ enum class LinearSolverKind {
   Auto,
   LU,            ///< LU of the full (non-symmetric) tangent, UMFPACK (SuiteSparse)
   LDLTSymmetric, ///< LDL^T of the symmetric part (A + A^T) / 2, Eigen SimplicialLDLT + METIS
-  EigenLU,       ///< LU of the full tangent, Eigen SparseLU + METIS (for comparison)
   /// Supernodal LL^T of the symmetric part, CHOLMOD + METIS; an iteration whose tangent is not
   /// positive definite falls back to LDLTSymmetric.
   Cholmod
@@ -43,7 +42,7 @@ public:
 };
 
 std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind);
-/// "auto", "lu", "ldlt", "eigen-lu" or "cholmod".
+/// "auto", "lu", "ldlt" or "cholmod". Throws std::invalid_argument for any other name.
 LinearSolverKind linear_solver_kind_from(const std::string& name);
 
 } // namespace yarnsim

@@ -164,15 +164,22 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> Simulation::external_loads(double t) co
   for (const NodalLoad& l : model_.loads) {
     const double f = l.factor.at(t);
     for (int node : model_.node_sets[l.node_set].nodes) {
-      loads.col(node).head<3>() += f * l.force;
+      const Eigen::Vector3d force = reference_components(l, l.force, node);
+      const Eigen::Vector3d moment = reference_components(l, l.moment, node);
+      loads.col(node).head<3>() += f * force;
       if (!l.follower_moment)
-        loads.col(node).tail<3>() += f * l.moment;
+        loads.col(node).tail<3>() += f * moment;
       else // current spatial direction of the follower moment
         loads.col(node).tail<3>() += f * (rodrigues_rotation<double>(state_.alpha.col(node)) *
-                                          state_.Q_n[node] * Q0_[node].transpose() * l.moment);
+                                          state_.Q_n[node] * Q0_[node].transpose() * moment);
     }
   }
   return loads;
+}
+
+Eigen::Vector3d Simulation::reference_components(const NodalLoad& load, const Eigen::Vector3d& v,
+                                                 int node) const {
+  return load.axes == LoadAxes::Section ? Eigen::Vector3d(Q0_[node] * v) : v;
 }
 
 void Simulation::apply_prescribed(double t_new) {
@@ -329,14 +336,14 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
     if (factor == 0.0)
       continue;
     for (int node : model_.node_sets[l.node_set].nodes) {
-      residual.segment<3>(6 * node) -= factor * l.force;
+      residual.segment<3>(6 * node) -= factor * reference_components(l, l.force, node);
       ref_force = std::max(ref_force, std::abs(factor) * l.force.norm());
       if (l.moment.squaredNorm() == 0.0)
         continue;
       Eigen::Vector3d r;
       Eigen::Matrix3d K;
-      applied_moment(factor * l.moment, l.follower_moment, state_.Q_n[node] * Q0_[node].transpose(),
-                     state_.alpha.col(node), r, K);
+      applied_moment(factor * reference_components(l, l.moment, node), l.follower_moment,
+                     state_.Q_n[node] * Q0_[node].transpose(), state_.alpha.col(node), r, K);
       residual.segment<3>(6 * node + 3) += r;
       if (want_tangent)
         assembler_->add_node_block(node, 3, 3, K);

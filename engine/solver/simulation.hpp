@@ -215,6 +215,10 @@ private:
   void apply_prescribed(double t_new);
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
+  /// A force or moment v of the load at node, given along load.axes, as global components in
+  /// the reference configuration (section axes: rotated by the node's reference triad).
+  Eigen::Vector3d reference_components(const NodalLoad& load, const Eigen::Vector3d& v,
+                                       int node) const;
 
   const Model& model_;
   SimulationOptions options_;

@@ -261,12 +261,7 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
     if (!d.stopped.empty() && cols.size() >= 5 && !cols[1].empty())
       set.label = fmt::format("{} (stopped at {:.2f} % strain)", d.label,
                               100 * std::max(cols[1].back(), cols[2].back()));
-    // The curves start at the undeformed state.
-    set.strain_warp.push_back(0);
-    set.strain_weft.push_back(0);
-    set.force_warp.push_back(0);
-    set.force_weft.push_back(0);
-    times[r].push_back(0);
+    // The curves start at the undeformed state: the run's first row is t = 0.
     if (cols.size() < 5)
       continue;
     for (std::size_t i = 0; i < cols[0].size(); ++i) {

@@ -23,6 +23,8 @@ base 's/^EA = .*/EA = "stiff"/' > wrong-type.toml
 check wrong-type 2 "wrong-type.toml:[0-9]*:[0-9]*:" "EA" "expected a number"
 base 's/^EA = .*/EA = -1.0/' > negative.toml
 check negative 2 "negative.toml:[0-9]*:[0-9]*:" "EA" "> 0"
+base 's/^moment = \(.*\)/moment = \1\naxes = "local"/' > bad-axes.toml
+check bad-axes 2 "bad-axes.toml:29:[0-9]*:" "loads\[0\].axes" 'expected "global" or "section", found "local"'
 base 's/node_set = "beam.end"/node_set = "beam.edn"/' > missing-set.toml
 check missing-set 2 "missing-set.toml:[0-9]*:[0-9]*:" "beam.edn"
 cat "$repo/examples/rollup.toml" > missing-node.toml
@@ -35,5 +37,10 @@ check no-such-file 2 "no-such-file.toml"
 "$yarnsim" --help > help.log 2>&1 || { echo "FAIL --help exit"; fail=1; }
 "$yarnsim" run > usage.log 2>&1; [ $? -eq 2 ] || { echo "FAIL usage exit"; fail=1; }
 "$yarnsim" run "$repo/examples/rollup.toml" --threads 0 > threads.log 2>&1; [ $? -eq 2 ] || { echo "FAIL --threads 0"; fail=1; }
+# eigen-lu is no longer a choice: CLI11 refuses it and lists the valid ones.
+"$yarnsim" run "$repo/examples/rollup.toml" -o eigen-lu -q --linear-solver eigen-lu > eigen-lu.log 2>&1
+[ $? -eq 2 ] || { echo "FAIL --linear-solver eigen-lu: exit not 2"; cat eigen-lu.log; fail=1; }
+grep -q "eigen-lu not in {auto,lu,ldlt}" eigen-lu.log || { echo "FAIL --linear-solver eigen-lu: message does not list the choices"; cat eigen-lu.log; fail=1; }
+[ -e eigen-lu ] && { echo "FAIL --linear-solver eigen-lu: an output folder was made"; fail=1; }
 if [ "$fail" -eq 0 ]; then echo "deck errors: all checks passed"; fi
 exit "$fail"

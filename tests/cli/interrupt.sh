@@ -32,13 +32,14 @@ interrupt() { # signal
   "$yarnsim" run long.toml -o "$out" --threads 2 > "$log" 2>&1 &
   local pid=$!
   # Wait until results.h5 holds a few steps (at most 20 s). Watched through tip.csv: a run writes
-  # an increment's monitor rows, then its step, so 6 rows mean at least 5 steps in results.h5.
+  # an increment's monitor rows, then its step, so 6 rows after the one at t = 0 mean at least 5
+  # steps in results.h5.
   # (Polling the .h5 itself works too, but h5ls fails now and then on a file being written and
   # the run may be thousands of increments further when it succeeds.)
   local start n
   start=$(now)
   while :; do
-    n=$(($(cat "$out/tip.csv" 2> /dev/null | wc -l) - 2))
+    n=$(($(cat "$out/tip.csv" 2> /dev/null | wc -l) - 3))
     [ "$n" -ge 5 ] && break
     if ! kill -0 "$pid" 2> /dev/null; then
       echo "FAIL $name: the run ended before it was signalled"; cat "$log"; fail=1; return

@@ -35,7 +35,8 @@ run_and_signal() { # name count
   local pid=$!
   local start
   start=$(now)
-  while [ "$(($(cat "$out/tip.csv" 2> /dev/null | wc -l) - 1))" -lt 1 ]; do
+  # tip.csv: a header, the row at t = 0, then a row per completed increment.
+  while [ "$(($(cat "$out/tip.csv" 2> /dev/null | wc -l) - 2))" -lt 1 ]; do
     if ! kill -0 "$pid" 2> /dev/null; then
       echo "FAIL $name: the run ended before it was signalled"; cat "$log"; fail=1; code=-1; return
     fi
@@ -50,7 +51,7 @@ run_and_signal() { # name count
     cat "$log"; fail=1; code=-1; return
   fi
   local rows_before
-  rows_before=$(($(wc -l < "$out/tip.csv") - 1))
+  rows_before=$(($(wc -l < "$out/tip.csv") - 2))
   local signalled
   signalled=$(now)
   kill -INT "$pid"

@@ -100,7 +100,7 @@ expect long-straight 0 run long.toml -o straight-long -q --threads 2
 pid=$!
 # Wait for a few written increments (at most 60 s), then interrupt.
 for ((i = 0; i < 600; ++i)); do
-  [ "$(cat part-long/start.csv 2> /dev/null | wc -l)" -ge 6 ] && break
+  [ "$(cat part-long/start.csv 2> /dev/null | wc -l)" -ge 7 ] && break
   kill -0 "$pid" 2> /dev/null || break
   sleep 0.1
 done

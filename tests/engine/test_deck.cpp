@@ -219,6 +219,34 @@ TEST(Deck, WrongTypeNamesExpectedAndFound) {
                            "sections[1].EA: expected a number > 0, found a string \"1e4\"");
 }
 
+TEST(Deck, LoadAxesAreGlobalUnlessSectionIsAsked) {
+  EXPECT_EQ(read_deck_string(kValid, "deck.toml").loads[0].axes, LoadAxes::Global);
+  const std::string global =
+      replace(kValid, "force = [0, -1, 0]", "axes = \"global\"\nforce = [0, -1, 0]");
+  EXPECT_EQ(read_deck_string(global, "deck.toml").loads[0].axes, LoadAxes::Global);
+  const std::string section = replace(kValid, "force = [0, -1, 0]",
+                                      "moment = [0, 0, 1]\nfollower = true\naxes = \"section\"");
+  const Model m = read_deck_string(section, "deck.toml");
+  EXPECT_EQ(m.loads[0].axes, LoadAxes::Section);
+  EXPECT_TRUE(m.loads[0].follower_moment);
+}
+
+TEST(Deck, UnknownLoadAxesAreReportedWithPositionExpectedAndFound) {
+  const std::string deck =
+      replace(kValid, "force = [0, -1, 0]", "force = [0, -1, 0]\naxes = \"sectoin\"");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0],
+            where(deck, "\"sectoin\"") +
+                "loads[0].axes: expected \"global\" or \"section\", found \"sectoin\"; did "
+                "you mean \"section\"?");
+  const std::string number = replace(kValid, "force = [0, -1, 0]", "force = [0, -1, 0]\naxes = 1");
+  const auto wrong_type = errors_of(number);
+  ASSERT_EQ(wrong_type.size(), 1u) << joined(wrong_type);
+  EXPECT_NE(wrong_type[0].find("loads[0].axes: expected a string"), std::string::npos)
+      << wrong_type[0];
+}
+
 TEST(Deck, NegativeStiffnessIsOutOfRange) {
   const std::string deck = replace(kValid, "EI = 1.0", "EI = -1.0");
   const auto errors = errors_of(deck);

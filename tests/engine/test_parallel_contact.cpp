@@ -8,6 +8,7 @@
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -212,6 +213,31 @@ History turned_from_crossing_to_parallel(int increments) {
   sim.run(&h);
   EXPECT_NEAR(h.time.back(), 1.0, 1e-12);
   return h;
+}
+
+TEST(ParallelContact, ContactPointsNameTheirSegmentsAndSumToTheTotalForce) {
+  // Rigid foundation, 4 elements: a pair per segment of the top spline (7 segments), each on the
+  // segment below it.
+  const int n = 4;
+  const Model m = side_by_side(n, 100.0, true);
+  Simulation sim(m);
+  sim.run();
+  const std::vector<ContactPoint> points = sim.contact()->points();
+  ASSERT_EQ(static_cast<int>(points.size()), 2 * n - 1);
+  double sum = 0;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const ContactPoint& p = points[k];
+    EXPECT_FALSE(p.surface);
+    EXPECT_EQ(p.definition, 0);
+    EXPECT_EQ(p.body, (std::array<int, 2>{0, 1})) << "point " << k; // top (A), bottom (B)
+    // The segment of the top spline over [knot k, knot k + 1], the same below.
+    EXPECT_EQ(p.segment, (std::array<int, 2>{static_cast<int>(k), static_cast<int>(k)}))
+        << "point " << k << " at x = " << p.position.x();
+    sum += p.force;
+  }
+  // Summed in the points' order: the same double.
+  EXPECT_EQ(sim.contact()->total_force(), sum);
+  EXPECT_NEAR(sum, 100.0, 1e-6 * 100.0); // the load q L
 }
 
 TEST(ParallelContact, AYarnTurnedFromCrossingToParallelKeepsAContinuousForceHistory) {

@@ -429,6 +429,20 @@ TEST_F(ResultsOutput, CsvHeaderAndEachRowAreOnDiskWhenTheCallReturns) {
   EXPECT_THROW(CsvWriter(dir / "bad.csv", {"a,b"}), std::invalid_argument);
 }
 
+TEST_F(ResultsOutput, CsvRowOfNamedCellsIsWrittenAsGivenAndCountsAsARow) {
+  const fs::path path = dir / "contact_points.csv";
+  CsvWriter csv(path, {"increment [-]", "contact", "gap [m]"});
+  const std::vector<std::string> cells{"3", "warp-weft", "-1e-06"};
+  csv.row(cells);
+  EXPECT_EQ(read_text(path), "increment [-],contact,gap [m]\n3,warp-weft,-1e-06\n");
+  EXPECT_EQ(csv.rows(), 1);
+  const std::vector<std::string> comma{"4", "a,b", "0"};
+  EXPECT_THROW(csv.row(comma), std::invalid_argument);
+  const std::vector<std::string> short_row{"4"};
+  EXPECT_THROW(csv.row(short_row), std::invalid_argument);
+  EXPECT_EQ(csv.rows(), 1);
+}
+
 #if defined(YARNSIM_SOURCE_DIR)
 TEST_F(ResultsOutput, ParaViewOpensTheResultsWhileTheRunWrites) {
   if (std::system("command -v pvpython > /dev/null 2>&1") != 0)

@@ -3,6 +3,7 @@
 #include "beam_models.hpp"
 #include "engine/solver/simulation.hpp"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
 #include <fmt/format.h>
@@ -120,6 +121,72 @@ TEST(VerificationStatic, ElasticaUnderADeadTipLoadOnAConvergedMesh) {
     EXPECT_NEAR(x.y() / L, row.w, 1e-3 * row.w) << "alpha " << row.alpha;
     EXPECT_NEAR((L - x.x()) / L, row.u, 1e-3 * row.u) << "alpha " << row.alpha;
     EXPECT_NEAR(sim.state().rotation_n(2, tip), row.rot, 1e-3 * row.rot) << "alpha " << row.alpha;
+  }
+}
+
+} // namespace
+} // namespace yarnsim
+
+namespace yarnsim {
+namespace {
+
+/// A cantilever along a skew axis whose section axes e1, e2, e3 are none of the global ones,
+/// clamped at its start, loaded at its tip by `load` (ramped to 1); returns the tip's position
+/// and rotation vector at the end.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> skew_cantilever_tip(NodalLoad load) {
+  Model m = test::straight_beam({0, 0, 0}, {0.6, 0.48, 0.64}, 16,
+                                test::stiffness_section(1e4, 1e4, 1.0, 1.0),
+                                Eigen::Vector3d(0.0, 0.0, 1.0));
+  m.sections[0].EI2 = 2.0; // unequal bending stiffnesses: the section's orientation matters
+  m.sections[0].GJ = 1.5;
+  m.constraints.push_back(test::clamp(1));
+  load.node_set = 2;
+  load.factor = TimeTable::ramp(1.0);
+  m.loads.push_back(load);
+  m.steps.push_back(test::static_step(1.0, 0.1));
+  Simulation sim(m);
+  sim.run();
+  const int tip = static_cast<int>(m.nodes.size()) - 1;
+  return {sim.state().x_n.col(tip), sim.state().rotation_n.col(tip)};
+}
+
+TEST(LoadAxes, LoadGivenAlongTheSectionAxesActsAsItsGlobalComponents) {
+  // The section axes of the skew cantilever, written out here: e3 along the beam, e1 the
+  // reference vector z without its part along e3, e2 = e3 x e1.
+  const Eigen::Vector3d e3 = Eigen::Vector3d(0.6, 0.48, 0.64).normalized();
+  const Eigen::Vector3d e1 = (Eigen::Vector3d::UnitZ() - e3.z() * e3).normalized();
+  Eigen::Matrix3d triad;
+  triad << e1, e3.cross(e1), e3;
+  for (int i = 0; i < 3; ++i) // no section axis along a global one
+    ASSERT_LT(triad.col(i).cwiseAbs().maxCoeff(), 0.9) << triad;
+  // Components along e1, e2, e3 (N m, or N): tip rotations of order one radian.
+  const Eigen::Vector3d in_section(0.3, -0.5, 0.8);
+  const Eigen::Vector3d global = triad * in_section;
+  for (const bool follower : {false, true}) {
+    for (const bool force : {false, true}) {
+      if (force && follower)
+        continue; // forces are dead loads
+      NodalLoad as_global, as_section, unrotated;
+      for (NodalLoad* l : {&as_global, &as_section, &unrotated}) {
+        l->follower_moment = follower;
+        (force ? l->force : l->moment) = l == &as_global ? global : in_section;
+      }
+      as_section.axes = LoadAxes::Section;
+      const auto [x_global, r_global] = skew_cantilever_tip(as_global);
+      const auto [x_section, r_section] = skew_cantilever_tip(as_section);
+      const auto [x_unrotated, r_unrotated] = skew_cantilever_tip(unrotated);
+      const std::string what = force ? "dead force" : follower ? "follower moment" : "dead moment";
+      std::printf("%s: tip rotation %.4f rad; section - global: position %.2e m, rotation %.2e "
+                  "rad\n",
+                  what.c_str(), r_global.norm(), (x_section - x_global).norm(),
+                  (r_section - r_global).norm());
+      // Round-off: the two runs' loads differ in the last bits (Q0 v against v given rotated).
+      EXPECT_LT((x_section - x_global).norm(), 1e-12) << what;
+      EXPECT_LT((r_section - r_global).norm(), 1e-12) << what;
+      // The components taken as global ones bend the beam elsewhere.
+      EXPECT_GT((x_unrotated - x_global).norm(), 1e-2) << what;
+      EXPECT_GT(r_global.norm(), 0.1) << what; // a large rotation: 0.2 to 0.7 rad
+    }
   }
 }
 

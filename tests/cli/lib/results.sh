@@ -35,8 +35,9 @@ h5_step_times() { # file.h5
 }
 
 # The results of a run that stopped: results.h5 opens, its status starts with the expected word,
-# its /steps groups are 000000 ... n-1 with increasing times, and every monitor CSV has a complete
-# row per step with the same times (all decks of these tests write every increment).
+# its /steps groups are 000000 ... n-1 with increasing times, and every monitor CSV has a row for
+# the initial state (t = 0) and then a complete row per step with the same times (all decks of
+# these tests write every increment).
 # Sets $steps to the number of steps.
 check_results() { # label dir expected-status-prefix
   local label="$1" dir="$2" status_prefix="$3"
@@ -67,7 +68,11 @@ check_results() { # label dir expected-status-prefix
   local csv
   for csv in "$dir"/*.csv; do
     [ -e "$csv" ] || continue
-    check_csv "$label" "$csv" "$n" "$times"
+    if [ "$(basename "$csv")" = contact_points.csv ]; then
+      check_contact_points "$label" "$csv" "$n" "$times"
+    else
+      check_csv "$label" "$csv" "$n" "$times"
+    fi
   done
   if [ -s "$dir/results.xdmf" ]; then
     check_xdmf "$label" "$dir/results.xdmf" "$n"
@@ -78,8 +83,9 @@ check_results() { # label dir expected-status-prefix
   steps=$n
 }
 
-# A CSV ends with a line break, every row has the header's number of numeric fields, there is
-# one row per step and its first column is the step's time.
+# A CSV ends with a line break, every row has the header's number of numeric fields, the first
+# row is the initial state (time 0), then there is one row per step and its first column is the
+# step's time.
 check_csv() { # label file.csv steps times
   local label="$1" csv="$2" n="$3" times="$4"
   if [ -s "$csv" ] && [ "$(tail -c 1 "$csv" | od -An -c | tr -d ' ')" != '\n' ]; then
@@ -95,14 +101,37 @@ check_csv() { # label file.csv steps times
   [ -z "$bad" ] || { echo "FAIL $label: $(basename "$csv"): $bad"; fail=1; }
   local rows
   rows=$(($(wc -l < "$csv") - 1))
-  [ "$rows" -eq "$n" ] || { echo "FAIL $label: $(basename "$csv") has $rows rows, results.h5 $n steps"; fail=1; }
+  [ "$rows" -eq $((n + 1)) ] || { echo "FAIL $label: $(basename "$csv") has $rows rows, results.h5 $n steps (expected a row at t = 0 and one per step)"; fail=1; }
+  [ "$(sed -n 2p "$csv" | cut -d, -f1)" = "0" ] || { echo "FAIL $label: the first row of $(basename "$csv") is not at t = 0"; fail=1; }
   # Same times, to 1e-9 relative.
-  if ! paste -d' ' <(printf '%s\n' "$times") <(tail -n +2 "$csv" | cut -d, -f1) |
+  if ! paste -d' ' <(printf '%s\n' "$times") <(tail -n +3 "$csv" | cut -d, -f1) |
     awk 'NF == 0 { next } NF != 2 { exit 1 }
          { d = $1 - $2; if (d < 0) d = -d; s = $1 < 0 ? -$1 : $1; if (d > 1e-9 * (s + 1e-300)) exit 1 }'; then
     echo "FAIL $label: the times of $(basename "$csv") differ from those of results.h5"
     fail=1
   fi
+}
+
+# contact_points.csv (a row per active contact point) ends with a line break, every row has the
+# header's number of fields, its increments do not decrease, and each row's time is 0 (the
+# initial state) or that of a step of results.h5, in order.
+check_contact_points() { # label file.csv steps times
+  local label="$1" csv="$2" n="$3" times="$4"
+  if [ -s "$csv" ] && [ "$(tail -c 1 "$csv" | od -An -c | tr -d ' ')" != '\n' ]; then
+    echo "FAIL $label: contact_points.csv ends in the middle of a row"
+    fail=1
+  fi
+  local bad
+  bad=$(printf '%s\n' "$times" | awk -F, -v n="$n" '
+    FNR == NR { if (NF) t[FNR] = $1 + 0; next }
+    FNR == 1 { cols = NF; t[0] = 0; j = 0; next }
+    NF != cols { print "row " FNR - 1 " has " NF " fields, the header " cols; exit }
+    $1 !~ /^[0-9]+$/ || $1 + 0 < prev { print "row " FNR - 1 ": increment " $1 " after " prev; exit }
+    { prev = $1 + 0
+      while (j <= n) { d = $2 - t[j]; if (d < 0) d = -d; s = t[j] < 0 ? -t[j] : t[j]
+                       if (d <= 1e-9 * (s + 1e-300)) break; ++j }
+      if (j > n) { print "row " FNR - 1 ": time " $2 " is not 0 or a step time of results.h5 (in order)"; exit } }' - "$csv")
+  [ -z "$bad" ] || { echo "FAIL $label: contact_points.csv: $bad"; fail=1; }
 }
 
 # results.xdmf is well-formed XML and its "yarns" collection has one grid per step.
