@@ -13,6 +13,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,30 @@ inline std::uint64_t fold_active_pair(std::uint64_t h, int definition, int first
   for (int v : {definition, first, second})
     h = (h ^ static_cast<std::uint64_t>(static_cast<std::uint32_t>(v))) * 0x100000001b3ull;
   return h;
+}
+
+/// Links each candidate of a work list to its warm start: `work[i].warm` becomes the index of the
+/// entry of `committed` with the same key (definition, first, second), or -1. Both lists are
+/// sorted by that key (the candidates come sorted from the search, the warm starts are written in
+/// the candidates' order), so one merge does it, in flat arrays instead of a map looked up per
+/// candidate and iteration. Throws std::logic_error when either list is not sorted.
+template <class Work, class Committed>
+void link_warm_starts(std::vector<Work>& work, const std::vector<Committed>& committed) {
+  const auto key = [](const Work& w) {
+    return std::array<int, 3>{w.definition, w.pair.first, w.pair.second};
+  };
+  std::size_t c = 0;
+  for (std::size_t i = 0; i < work.size(); ++i) {
+    if (i > 0 && !(key(work[i - 1]) < key(work[i])))
+      throw std::logic_error("link_warm_starts: the candidates are not sorted by key");
+    while (c < committed.size() && committed[c].key < key(work[i])) {
+      if (c + 1 < committed.size() && !(committed[c].key < committed[c + 1].key))
+        throw std::logic_error("link_warm_starts: the warm starts are not sorted by key");
+      ++c;
+    }
+    work[i].warm =
+        c < committed.size() && committed[c].key == key(work[i]) ? static_cast<int>(c) : -1;
+  }
 }
 
 /// One contact formulation's stage over all of its definitions in a model.

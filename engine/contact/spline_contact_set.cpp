@@ -120,6 +120,7 @@ bool SplineContactSet::update_candidates(const State& state) {
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
       work_.push_back({static_cast<int>(k), p, {}});
+  link_warm_starts(work_, committed_);
   return true;
 }
 
@@ -142,9 +143,8 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
             B.col(c) = x.col(n[3 + c]);
           }
           contact::ProjectionStart start;
-          const auto it = committed_.find(Key{item.definition, item.pair.first, item.pair.second});
-          if (it != committed_.end())
-            start = {it->second.xi_A, it->second.xi_B, true};
+          if (item.warm >= 0)
+            start = {committed_[item.warm].xi_A, committed_[item.warm].xi_B, true};
           const auto& ca = curves_[d.spline[item.pair.first]];
           const auto& cb = curves_[d.spline[item.pair.second]];
           const double ra = d.radius[item.pair.first], rb = d.radius[item.pair.second];
@@ -170,8 +170,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
     if (status != contact::ProjectionStatus::NotConverged &&
         status != contact::ProjectionStatus::Jumped)
       continue;
-    const auto it = committed_.find(Key{item.definition, item.pair.first, item.pair.second});
-    const bool was_active = it != committed_.end() && it->second.active;
+    const bool was_active = item.warm >= 0 && committed_[item.warm].active;
     if (was_active || item.result.active) {
       const Definition& d = *definitions_[item.definition];
       return fmt::format(
@@ -213,15 +212,18 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
 
 void SplineContactSet::commit() {
   // Keep warm starts of the current candidates only; pairs that left the list start cold.
-  std::map<Key, Committed> next;
-  for (const Work& item : work_) {
+  next_committed_.clear();
+  for (Work& item : work_) {
     const auto& r = item.result;
+    item.warm = -1;
     // A point contact that was not evaluated (nearly parallel chords) leaves no warm start.
     if (r.status == contact::ProjectionStatus::NotConverged || !r.point_evaluated)
       continue;
-    next[Key{item.definition, item.pair.first, item.pair.second}] = {r.xi_A, r.xi_B, r.active};
+    item.warm = static_cast<int>(next_committed_.size());
+    next_committed_.push_back(
+        {Key{item.definition, item.pair.first, item.pair.second}, r.xi_A, r.xi_B, r.active});
   }
-  committed_ = std::move(next);
+  std::swap(committed_, next_committed_);
 }
 
 std::vector<ContactPoint> SplineContactSet::points() const {
@@ -246,9 +248,7 @@ SplineContactSet::Snapshot SplineContactSet::snapshot() const {
   Snapshot out;
   for (const auto& d : definitions_)
     out.search_boxes.push_back(d->searched);
-  out.committed.reserve(committed_.size());
-  for (const auto& [key, c] : committed_)
-    out.committed.push_back({key, c.xi_A, c.xi_B, c.active});
+  out.committed = committed_;
   out.pairs.reserve(work_.size());
   for (const Work& w : work_) {
     const contact::SplineContactResult& r = w.result;
@@ -306,9 +306,8 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
     r.normal = p.normal;
   }
   work_ = std::move(work);
-  committed_.clear();
-  for (const Snapshot::Warm& c : snapshot.committed)
-    committed_[c.key] = {c.xi_A, c.xi_B, c.active};
+  committed_ = snapshot.committed;
+  link_warm_starts(work_, committed_);
   candidates_version_ = snapshot.candidates_version;
   summarise();
 }

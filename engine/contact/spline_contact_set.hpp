@@ -11,7 +11,6 @@
 
 #include <Eigen/Core>
 #include <array>
-#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -76,6 +75,7 @@ private:
     int definition;
     broadphase::CandidatePair pair;
     contact::SplineContactResult result;
+    int warm = -1; ///< index of its warm start in committed_, or -1 (link_warm_starts)
   };
 
   std::array<int, 6> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
@@ -88,11 +88,9 @@ private:
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;
-  struct Committed {
-    double xi_A, xi_B;
-    bool active;
-  };
-  std::map<Key, Committed> committed_;
+  /// Warm starts of the last converged increment's candidates, sorted by key.
+  std::vector<Snapshot::Warm> committed_;
+  std::vector<Snapshot::Warm> next_committed_; ///< commit()'s buffer, kept for its capacity
   int candidates_version_ = 0;
   ContactSummary summary_;
 };

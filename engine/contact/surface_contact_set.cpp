@@ -116,6 +116,7 @@ bool SurfaceContactSet::update_candidates(const State& state) {
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
       work_.push_back({static_cast<int>(k), p, {}});
+  link_warm_starts(work_, committed_);
   by_second_.resize(work_.size());
   for (std::size_t i = 0; i < by_second_.size(); ++i)
     by_second_[i] = i;
@@ -131,46 +132,47 @@ bool SurfaceContactSet::update_candidates(const State& state) {
 std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
   contact::SurfaceContactOptions options;
   options.compute_tangent = want_tangent;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, work_.size(), 8),
-      [&](const tbb::blocked_range<std::size_t>& range) {
-        for (std::size_t w = range.begin(); w != range.end(); ++w) {
-          Work& item = work_[w];
-          const Definition& d = *definitions_[item.definition];
-          contact::SurfaceProjectionStart start;
-          const auto it = committed_.find(Key{item.definition, item.pair.first, item.pair.second});
-          if (it != committed_.end())
-            start = {it->second.zeta_A, it->second.theta_A, it->second.zeta_B, it->second.theta_B,
-                     true};
-          try {
-            const auto A = cylinder(d, item.pair.first, state);
-            const auto B = cylinder(d, item.pair.second, state);
-            contact::surface_contact(A, B, start, *d.law, item.result, options);
-            if (item.result.status == contact::ProjectionStatus::Jumped) {
-              // The warm start led far away. Where the last solution has vanished (two critical
-              // points of the distance met and annihilated, as happens on the flat faces of
-              // wide ellipses), no smaller step brings it back: the solution a cold start finds
-              // from the geometry alone is then the pair's contact. The jump stands (and vetoes
-              // the increment) only if the cold start finds another point.
-              const contact::SurfaceContactResult& warm = item.result;
-              const auto cold = contact::surface_contact(A, B, {}, *d.law, options);
-              const double tolerance = 1e-6;
-              if (cold.status == contact::ProjectionStatus::Converged &&
-                  std::abs(cold.zeta_A - warm.zeta_A) < tolerance &&
-                  std::abs(cold.zeta_B - warm.zeta_B) < tolerance &&
-                  std::abs(std::remainder(cold.theta_A - warm.theta_A, 2 * std::numbers::pi)) <
-                      tolerance &&
-                  std::abs(std::remainder(cold.theta_B - warm.theta_B, 2 * std::numbers::pi)) <
-                      tolerance)
-                item.result = cold;
-            }
-          } catch (const std::invalid_argument&) {
-            // Non-finite node data (a diverging iterate): the pair cannot be projected.
-            item.result = {};
-            item.result.status = contact::ProjectionStatus::NotConverged;
-          }
-        }
-      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 8),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t w = range.begin(); w != range.end(); ++w) {
+                        Work& item = work_[w];
+                        const Definition& d = *definitions_[item.definition];
+                        contact::SurfaceProjectionStart start;
+                        if (item.warm >= 0) {
+                          const Snapshot::Warm& c = committed_[item.warm];
+                          start = {c.zeta_A, c.theta_A, c.zeta_B, c.theta_B, true};
+                        }
+                        try {
+                          const auto A = cylinder(d, item.pair.first, state);
+                          const auto B = cylinder(d, item.pair.second, state);
+                          contact::surface_contact(A, B, start, *d.law, item.result, options);
+                          if (item.result.status == contact::ProjectionStatus::Jumped) {
+                            // The warm start led far away. Where the last solution has vanished
+                            // (two critical points of the distance met and annihilated, as happens
+                            // on the flat faces of wide ellipses), no smaller step brings it back:
+                            // the solution a cold start finds from the geometry alone is then the
+                            // pair's contact. The jump stands (and vetoes the increment) only if
+                            // the cold start finds another point.
+                            const contact::SurfaceContactResult& warm = item.result;
+                            const auto cold = contact::surface_contact(A, B, {}, *d.law, options);
+                            const double tolerance = 1e-6;
+                            if (cold.status == contact::ProjectionStatus::Converged &&
+                                std::abs(cold.zeta_A - warm.zeta_A) < tolerance &&
+                                std::abs(cold.zeta_B - warm.zeta_B) < tolerance &&
+                                std::abs(std::remainder(cold.theta_A - warm.theta_A,
+                                                        2 * std::numbers::pi)) < tolerance &&
+                                std::abs(std::remainder(cold.theta_B - warm.theta_B,
+                                                        2 * std::numbers::pi)) < tolerance)
+                              item.result = cold;
+                          }
+                        } catch (const std::invalid_argument&) {
+                          // Non-finite node data (a diverging iterate): the pair cannot be
+                          // projected.
+                          item.result = {};
+                          item.result.status = contact::ProjectionStatus::NotConverged;
+                        }
+                      }
+                    });
 
   share_split_contacts();
   summary_ = {};
@@ -202,8 +204,7 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
     if (status != contact::ProjectionStatus::NotConverged &&
         status != contact::ProjectionStatus::Jumped)
       continue;
-    const auto it = committed_.find(Key{item.definition, item.pair.first, item.pair.second});
-    const bool was_active = it != committed_.end() && it->second.active;
+    const bool was_active = item.warm >= 0 && committed_[item.warm].active;
     if (was_active || item.result.active) {
       const Definition& d = *definitions_[item.definition];
       const auto element = [&](int s) {
@@ -299,15 +300,17 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
 
 void SurfaceContactSet::commit() {
   // Keep warm starts of the current candidates only; pairs that left the list start cold.
-  std::map<Key, Committed> next;
-  for (const Work& item : work_) {
+  next_committed_.clear();
+  for (Work& item : work_) {
     const auto& r = item.result;
+    item.warm = -1;
     if (r.status == contact::ProjectionStatus::NotConverged)
       continue;
-    next[Key{item.definition, item.pair.first, item.pair.second}] = {r.zeta_A, r.theta_A, r.zeta_B,
-                                                                     r.theta_B, r.active};
+    item.warm = static_cast<int>(next_committed_.size());
+    next_committed_.push_back({Key{item.definition, item.pair.first, item.pair.second}, r.zeta_A,
+                               r.theta_A, r.zeta_B, r.theta_B, r.active});
   }
-  committed_ = std::move(next);
+  std::swap(committed_, next_committed_);
 }
 
 std::vector<ContactPoint> SurfaceContactSet::points() const {
@@ -335,9 +338,7 @@ SurfaceContactSet::Snapshot SurfaceContactSet::snapshot() const {
   Snapshot out;
   for (const auto& d : definitions_)
     out.search_boxes.push_back(d->search->searched_boxes());
-  out.committed.reserve(committed_.size());
-  for (const auto& [key, c] : committed_)
-    out.committed.push_back({key, c.zeta_A, c.theta_A, c.zeta_B, c.theta_B, c.active});
+  out.committed = committed_;
   out.pairs.reserve(work_.size());
   for (const Work& w : work_) {
     const contact::SurfaceContactResult& r = w.result;
@@ -430,9 +431,8 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
     return std::tie(p.definition, p.pair.second, p.pair.first) <
            std::tie(q.definition, q.pair.second, q.pair.first);
   });
-  committed_.clear();
-  for (const Snapshot::Warm& c : snapshot.committed)
-    committed_[c.key] = {c.zeta_A, c.theta_A, c.zeta_B, c.theta_B, c.active};
+  committed_ = snapshot.committed;
+  link_warm_starts(work_, committed_);
   candidates_version_ = snapshot.candidates_version;
   summary_ = snapshot.summary;
 }

@@ -12,7 +12,6 @@
 
 #include <Eigen/Core>
 #include <array>
-#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -78,6 +77,7 @@ private:
     /// Factor on the pair's force where it and a neighbour's pair find two close points in a
     /// valley (share_split_contacts); 1 elsewhere.
     double factor = 1.0;
+    int warm = -1; ///< index of its warm start in committed_, or -1 (link_warm_starts)
   };
   using Key = std::array<int, 3>; ///< definition, first, second segment id
 
@@ -95,11 +95,9 @@ private:
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
   /// Indices into work_ sorted by (definition, second, first); rebuilt with the work list.
   std::vector<std::size_t> by_second_;
-  struct Committed {
-    double zeta_A, theta_A, zeta_B, theta_B;
-    bool active;
-  };
-  std::map<Key, Committed> committed_;
+  /// Warm starts of the last converged increment's candidates, sorted by key.
+  std::vector<Snapshot::Warm> committed_;
+  std::vector<Snapshot::Warm> next_committed_; ///< commit()'s buffer, kept for its capacity
   int candidates_version_ = 0;
   ContactSummary summary_;
 };
