@@ -449,8 +449,8 @@ TEST_F(ResultsOutput, CsvRowOfNamedCellsIsWrittenAsGivenAndCountsAsARow) {
 TEST_F(ResultsOutput, ParaViewOpensTheResultsWhileTheRunWrites) {
   if (std::system("command -v pvpython > /dev/null 2>&1") != 0) {
     // scripts/test installs python3-paraview and asks for the check: there it cannot skip.
-    if (std::getenv("YARNSIM_REQUIRE_PARAVIEW") != nullptr)
-      FAIL() << "pvpython not installed (python3-paraview), and YARNSIM_REQUIRE_PARAVIEW is set";
+    if (std::getenv("YARNSIM_REQUIRE_TEST_TOOLS") != nullptr)
+      FAIL() << "pvpython not installed (python3-paraview), and YARNSIM_REQUIRE_TEST_TOOLS is set";
     GTEST_SKIP() << "pvpython not installed";
   }
   ResultsFile results(dir, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
