@@ -1608,8 +1608,10 @@ private:
   const CheckedTable* explicit_step_ = nullptr;
 };
 
-Model build(const toml::table& table, Diagnostics& diagnostics) {
-  std::optional<Model> fabric = textile::read_fabric_deck(table, diagnostics); // [fabric] decks
+Model build(const toml::table& table, Diagnostics& diagnostics,
+            const std::filesystem::path& folder) {
+  std::optional<Model> fabric =
+      textile::read_fabric_deck(table, diagnostics, folder); // [fabric] decks
   Model model = fabric ? std::move(*fabric) : DeckBuilder(table, diagnostics).build();
   if (!diagnostics.empty())
     throw InputError(diagnostics.messages());
@@ -1632,7 +1634,7 @@ Model read_deck(const std::filesystem::path& file) {
     diagnostics.error(e.source(), "", fmt::format("syntax error: {}", e.description()));
     throw InputError(diagnostics.messages());
   }
-  return build(table, diagnostics);
+  return build(table, diagnostics, file.parent_path());
 }
 
 Model read_deck_string(std::string_view text, std::string_view source_name) {
@@ -1644,7 +1646,7 @@ Model read_deck_string(std::string_view text, std::string_view source_name) {
     diagnostics.error(e.source(), "", fmt::format("syntax error: {}", e.description()));
     throw InputError(diagnostics.messages());
   }
-  return build(table, diagnostics);
+  return build(table, diagnostics, std::filesystem::path(source_name).parent_path());
 }
 
 } // namespace yarnsim

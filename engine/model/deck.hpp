@@ -28,7 +28,8 @@ private:
 /// the reading at the first one, as the rest of the file cannot be trusted).
 Model read_deck(const std::filesystem::path& file);
 
-/// As read_deck, from text; `source_name` stands for the file name in messages (for tests).
+/// As read_deck, from text; `source_name` stands for the file name in messages (for tests), and
+/// its folder is where the relative paths of the deck (a fabric deck's `texgen`) start.
 Model read_deck_string(std::string_view text, std::string_view source_name);
 
 } // namespace yarnsim
