@@ -1,7 +1,7 @@
 // yarnsim: the command line. Thin: parse, read the deck, run, map exceptions to exit codes
 // (README: 0 success, 1 other failure, 2 bad input or usage, 3 no convergence, 130 interrupted).
 
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/output/checkpoint_file.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"

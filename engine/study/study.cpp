@@ -1,6 +1,6 @@
 #include "engine/study/study.hpp"
 
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/model/deck_schema.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"

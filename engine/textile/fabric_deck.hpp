@@ -1,7 +1,8 @@
 #pragma once
 // The fabric deck: a TOML deck that describes a woven fabric and its biaxial test ([fabric],
 // [biaxial], optional [contact]) instead of nodes and elements (docs/input.md, "Fabric decks").
-// read_deck() hands a deck with a top-level "fabric" key to read_fabric_deck().
+// read_deck() (engine/input/read_deck.hpp) hands a deck with a top-level "fabric" key to
+// read_fabric_deck().
 
 #include "engine/model/deck_schema.hpp"
 #include "engine/model/model.hpp"

@@ -1,7 +1,7 @@
 // Fabric decks whose yarns come from a TexGen file ([fabric] texgen, engine/textile/fabric_deck.hpp
 // through read_deck), on the sample files of ../shared/data/texgen/ and on broken input.
 
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/texgen.hpp"
 
