@@ -1,8 +1,9 @@
 // yarnsim: the command line. Thin: parse, read the deck, run, map exceptions to exit codes
 // (README: 0 success, 1 other failure, 2 bad input or usage, 3 no convergence, 130 interrupted).
 
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/output/checkpoint_file.hpp"
+#include "engine/run/check.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/study/study.hpp"
@@ -103,6 +104,14 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"auto", "lu", "ldlt"}));
   study->add_flag("--quiet,-q", quiet, "No progress line");
 
+  std::string check_deck;
+  CLI::App* check = app.add_subcommand(
+      "check", "Read and check a deck (model or fabric deck) without running it, and print what "
+               "its model holds: size, contact definitions and candidate pairs at the initial "
+               "configuration, clearance, stable explicit step, steps");
+  check->add_option("deck", check_deck, "Deck (.toml)")->required();
+  check->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -150,6 +159,23 @@ int main(int argc, char** argv) {
     } catch (const yarnsim::Interrupted& e) {
       fmt::print(stderr, "{}\n", e.what());
       return kInterrupted;
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "error: {}\n", e.what());
+      return kFailure;
+    }
+  }
+
+  if (check->parsed()) {
+    const std::filesystem::path path(check_deck);
+    try {
+      const yarnsim::Model model = yarnsim::read_deck(path);
+      fmt::print("deck: {}\ntitle: {}\n{}", path.string(), model.title,
+                 yarnsim::check_report(model));
+      fmt::print("the deck is fine: nothing was run\n");
+      return kSuccess;
+    } catch (const yarnsim::InputError& e) {
+      fmt::print(stderr, "{}\nerror: the deck has {} problem(s)\n", e.what(), e.messages().size());
+      return kBadInput;
     } catch (const std::exception& e) {
       fmt::print(stderr, "error: {}\n", e.what());
       return kFailure;

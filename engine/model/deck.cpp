@@ -1,7 +1,7 @@
 #include "engine/model/deck.hpp"
 
 #include "engine/model/deck_schema.hpp"
-#include "engine/textile/fabric_deck.hpp"
+#include "engine/model/model_deck.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -1608,43 +1608,10 @@ private:
   const CheckedTable* explicit_step_ = nullptr;
 };
 
-Model build(const toml::table& table, Diagnostics& diagnostics) {
-  std::optional<Model> fabric = textile::read_fabric_deck(table, diagnostics); // [fabric] decks
-  Model model = fabric ? std::move(*fabric) : DeckBuilder(table, diagnostics).build();
-  if (!diagnostics.empty())
-    throw InputError(diagnostics.messages());
-  return model;
-}
-
 } // namespace
 
-Model read_deck(const std::filesystem::path& file) {
-  Diagnostics diagnostics(file.string());
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec))
-    throw InputError(
-        {fmt::format("{}: cannot read the deck: {}", file.string(),
-                     std::filesystem::exists(file, ec) ? "not a regular file" : "no such file")});
-  toml::table table;
-  try {
-    table = toml::parse_file(file.string());
-  } catch (const toml::parse_error& e) {
-    diagnostics.error(e.source(), "", fmt::format("syntax error: {}", e.description()));
-    throw InputError(diagnostics.messages());
-  }
-  return build(table, diagnostics);
-}
-
-Model read_deck_string(std::string_view text, std::string_view source_name) {
-  Diagnostics diagnostics{std::string(source_name)};
-  toml::table table;
-  try {
-    table = toml::parse(text, source_name);
-  } catch (const toml::parse_error& e) {
-    diagnostics.error(e.source(), "", fmt::format("syntax error: {}", e.description()));
-    throw InputError(diagnostics.messages());
-  }
-  return build(table, diagnostics);
+Model read_model_deck(const toml::table& table, deck::Diagnostics& diagnostics) {
+  return DeckBuilder(table, diagnostics).build();
 }
 
 } // namespace yarnsim

@@ -1,6 +1,7 @@
 #pragma once
-// The TOML model deck: reading, validation and resolution into a Model. The format is documented
-// in docs/input.md; the schema of every block is declared in deck.cpp.
+// Bad input: the error every reader of a deck or of a file it names throws (InputError). The model
+// deck's reader is model_deck.hpp (its schema is declared in deck.cpp), the front door that reads
+// any deck engine/input/read_deck.hpp; the format is documented in docs/input.md.
 
 #include "engine/model/model.hpp"
 
@@ -23,12 +24,5 @@ public:
 private:
   std::vector<std::string> messages_;
 };
-
-/// Reads and validates a deck; throws InputError listing ALL errors at once (syntax errors stop
-/// the reading at the first one, as the rest of the file cannot be trusted).
-Model read_deck(const std::filesystem::path& file);
-
-/// As read_deck, from text; `source_name` stands for the file name in messages (for tests).
-Model read_deck_string(std::string_view text, std::string_view source_name);
 
 } // namespace yarnsim

@@ -78,6 +78,12 @@ void Diagnostics::error(const toml::source_region& where, std::string_view path,
                                   path.empty() ? "" : ": ", message)});
 }
 
+void Diagnostics::attach(const toml::source_region& where, std::string text) {
+  const toml::source_index line = where.begin.line == 0 ? 1 : where.begin.line;
+  const toml::source_index column = where.begin.line == 0 ? 1 : where.begin.column;
+  entries_.push_back({line, column, std::move(text)});
+}
+
 std::vector<std::string> Diagnostics::messages() const {
   std::vector<std::size_t> order(entries_.size());
   std::iota(order.begin(), order.end(), std::size_t{0});

@@ -29,6 +29,9 @@ public:
   /// Records a problem at `where` (a region without a line is reported at 1:1). `path` is the
   /// key path of the offending node ("sections[0].EA"); empty for whole-file problems.
   void error(const toml::source_region& where, std::string_view path, std::string_view message);
+  /// Records a message of another file the deck names (a TexGen file: "other.tg3:7:48: ..."),
+  /// as written, listed after the deck's own messages at `where` (the key naming the file).
+  void attach(const toml::source_region& where, std::string text);
 
   bool empty() const { return entries_.empty(); }
   const std::string& source() const { return source_; }

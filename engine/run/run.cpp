@@ -4,6 +4,7 @@
 #include "engine/output/csv_writer.hpp"
 #include "engine/output/results_file.hpp"
 #include "engine/output/serial_writer.hpp"
+#include "engine/run/check.hpp"
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/textile/biaxial.hpp"
@@ -558,11 +559,7 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
           std::max(mesh.node_radius(node), node_radius_of(model.sections[el.section], length));
   }
   if (sim.contact() && options.progress)
-    fmt::print(stderr,
-               "{} contact: initial clearance {:.6g} mm (smallest gap the contact sees before "
-               "loading{})\n",
-               sim.contact()->formulations(), 1e3 * sim.initial_contact_clearance(),
-               model.spline_contacts.empty() ? "" : "; the splines' effective gap");
+    fmt::print(stderr, "{}", initial_clearance_line(sim));
   const output::RunMetadata meta{options.deck_text, options.deck_path, kVersion, options.threads};
   output::ResultsFile results =
       restart ? output::ResultsFile(options.output_dir, mesh, meta,

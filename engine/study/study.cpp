@@ -1,6 +1,6 @@
 #include "engine/study/study.hpp"
 
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/model/deck_schema.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
@@ -103,7 +103,7 @@ Model read_case_deck(const std::filesystem::path& file, StudyPath path) {
     biaxial->insert_or_assign("type", "explicit");
   else if (given != "static" && given != "dynamic")
     biaxial->insert_or_assign("type", "dynamic");
-  std::optional<Model> model = textile::read_fabric_deck(table, diagnostics);
+  std::optional<Model> model = textile::read_fabric_deck(table, diagnostics, file.parent_path());
   if (!diagnostics.empty() || !model)
     throw InputError(diagnostics.messages());
   return std::move(*model);

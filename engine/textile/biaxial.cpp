@@ -154,13 +154,14 @@ BiaxialReading read_biaxial(const Model& model, const Eigen::Matrix3Xd& x,
   for (int dir = 0; dir < 2; ++dir) {
     const auto& starts = dir == 0 ? test.warp_start : test.weft_start;
     const auto& ends = dir == 0 ? test.warp_end : test.weft_end;
-    const double length = dir == 0 ? test.length_warp : test.length_weft;
     for (std::size_t i = 0; i < starts.size(); ++i) {
       const int a = model.node_sets[starts[i]].nodes.front();
       const int b = model.node_sets[ends[i]].nodes.front();
       const Eigen::Vector2d d0 = (model.nodes[b] - model.nodes[a]).head<2>();
       const Eigen::Vector2d d = (x.col(b) - x.col(a)).head<2>();
-      strain[dir] += (d.norm() - d0.norm()) / length / starts.size();
+      // Each yarn over its own length: the yarns of a TexGen fabric need not be equally long
+      // (a woven deck's are, to the last bit, so its strains are those of test.length_warp).
+      strain[dir] += (d.norm() - d0.norm()) / d0.norm() / starts.size();
       const Eigen::Vector3d axis(d0.x() / d0.norm(), d0.y() / d0.norm(), 0.0);
       const double f =
           0.5 * (reactions.col(b).head<3>().dot(axis) - reactions.col(a).head<3>().dot(axis));

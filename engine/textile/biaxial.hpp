@@ -73,7 +73,7 @@ void add_biaxial_test(Fabric& fabric, const BiaxialParameters& parameters);
 /// One point of a biaxial test's force-strain curves (paper §5, Fig. 3).
 struct BiaxialReading {
   /// Mean strain of the warp (weft) yarns: change of the in-plane distance between a yarn's two
-  /// end nodes over the test's in-plane length, -.
+  /// end nodes over that distance in the reference configuration, -.
   double strain_warp = 0, strain_weft = 0;
   /// Total force along each direction, positive in tension: per yarn the mean of the pulls at its
   /// two ends along its reference in-plane end-to-end direction, summed over the yarns, N.

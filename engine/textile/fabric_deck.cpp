@@ -1,9 +1,12 @@
 #include "engine/textile/fabric_deck.hpp"
 
+#include "engine/model/deck.hpp"
 #include "engine/textile/biaxial.hpp"
+#include "engine/textile/texgen.hpp"
 #include "engine/textile/weave.hpp"
 
 #include <algorithm>
+#include <array>
 #include <fmt/format.h>
 #include <stdexcept>
 
@@ -41,8 +44,48 @@ constexpr KeySpec kFabricKeys[] = {
     {"reduce_lower_inertia", Type::Number, kOptional, kUnitHalfOpen},
     {"shear_factor", Type::Number, kOptional, kUnitHalfOpen},
     {"elements_per_spacing", Type::Integer, kOptional, kElements},
+    // A TexGen file instead of the weave parameters (TexGenOptions, engine/textile/texgen.hpp).
+    {"texgen", Type::String},
+    {"textile", Type::String},
+    {"repeats", Type::Any},
+    {"elements_per_interval", Type::Integer, kOptional, kElements},
+    {"length_scale", Type::Number, kOptional, kPositive},
+    {"rebuild_weaves", Type::Boolean},
 };
 constexpr TableSpec kFabric{"[fabric]", kFabricKeys};
+
+/// Keys that describe the weave: errors with `texgen`, whose file holds the geometry.
+constexpr std::string_view kWeaveOnlyKeys[] = {"pattern",
+                                               "n_warp",
+                                               "n_weft",
+                                               "spacing_warp",
+                                               "spacing_weft",
+                                               "length_warp",
+                                               "length_weft",
+                                               "gap",
+                                               "a",
+                                               "b",
+                                               "elements_per_spacing"};
+/// Keys that only a TexGen file gives a meaning to: errors without `texgen`.
+constexpr std::string_view kTexGenOnlyKeys[] = {"textile", "repeats", "elements_per_interval",
+                                                "length_scale", "rebuild_weaves"};
+
+constexpr bool weave_only(std::string_view key) {
+  return std::find(std::begin(kWeaveOnlyKeys), std::end(kWeaveOnlyKeys), key) !=
+         std::end(kWeaveOnlyKeys);
+}
+
+/// [fabric] with `texgen`: the weave's required keys are not required (given, they are errors).
+constexpr auto kTexGenFabricKeys = [] {
+  std::array<KeySpec, std::size(kFabricKeys)> out{};
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    out[i] = kFabricKeys[i];
+    if (weave_only(out[i].name))
+      out[i].need = kOptional;
+  }
+  return out;
+}();
+constexpr TableSpec kTexGenFabric{"[fabric]", kTexGenFabricKeys};
 
 constexpr KeySpec kToleranceKeys[] = {
     {"force", Type::Number, kOptional, kPositive},
@@ -97,6 +140,19 @@ constexpr KeySpec kFabricDeckKeys[] = {
     {"contact", Type::Table, kOptional, kAnyValue, &kContact},
 };
 constexpr TableSpec kFabricDeck{"the top level of a fabric deck", kFabricDeckKeys};
+constexpr KeySpec kTexGenFabricDeckKeys[] = {
+    {"title", Type::String},
+    {"fabric", Type::Table, kRequired, kAnyValue, &kTexGenFabric},
+    {"biaxial", Type::Table, kRequired, kAnyValue, &kBiaxial},
+    {"contact", Type::Table, kOptional, kAnyValue, &kContact},
+};
+constexpr TableSpec kTexGenFabricDeck{"the top level of a fabric deck", kTexGenFabricDeckKeys};
+
+/// Whether [fabric] takes its yarns from a TexGen file (has a `texgen` key, of whatever type).
+bool uses_texgen(const toml::table& table) {
+  const toml::table* fabric = table["fabric"].as_table();
+  return fabric != nullptr && fabric->contains("texgen");
+}
 
 // ---------------------------------------------------------------------------------------------
 
@@ -186,44 +242,198 @@ std::string_view one_of(const CheckedTable& t, std::string_view first, std::stri
 
 class FabricDeckBuilder {
 public:
-  FabricDeckBuilder(const toml::table& table, Diagnostics& diagnostics)
-      : root_(table, kFabricDeck, "", diagnostics), diagnostics_(diagnostics) {}
+  FabricDeckBuilder(const toml::table& table, Diagnostics& diagnostics,
+                    std::filesystem::path folder)
+      : texgen_(uses_texgen(table)),
+        root_(table, texgen_ ? kTexGenFabricDeck : kFabricDeck, "", diagnostics),
+        diagnostics_(diagnostics), folder_(std::move(folder)) {}
 
   Model build() {
     const CheckedTable* fabric = root_.table("fabric");
     const CheckedTable* biaxial = root_.table("biaxial");
     const CheckedTable* contact = root_.table("contact");
-    std::optional<WeaveParameters> weave = fabric ? weave_parameters(*fabric) : std::nullopt;
+    if (fabric)
+      misplaced_keys(*fabric);
     const ContactFormulation formulation =
         contact ? contact_formulation(*contact) : ContactFormulation::Spline;
     const InterfaceLawParameters law =
         contact ? contact_law(*contact, formulation) : default_law(formulation);
+    std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
+    // A TexGen file is read, and its own problems reported, whatever the rest of the deck holds.
+    std::optional<Fabric> built;
+    if (texgen_)
+      built = fabric ? texgen_fabric(*fabric, law, formulation) : std::nullopt;
+    std::optional<WeaveParameters> weave =
+        fabric && !texgen_ ? weave_parameters(*fabric) : std::nullopt;
     if (weave) {
       weave->contact_law = law;
       weave->contact = formulation;
     }
-    std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
-    if (!weave || !test || !diagnostics_.empty())
+    if ((!weave && !built) || !test || !diagnostics_.empty())
       return {};
-    Fabric built;
-    try {
-      built = build_weave(*weave);
-    } catch (const std::invalid_argument& e) {
-      fabric->error(e.what());
-      return {};
+    if (weave) {
+      try {
+        built = build_weave(*weave);
+      } catch (const std::invalid_argument& e) {
+        fabric->error(e.what());
+        return {};
+      }
     }
     try {
-      add_biaxial_test(built, *test);
+      add_biaxial_test(*built, *test);
     } catch (const std::invalid_argument& e) {
-      biaxial->error(e.what());
+      // With a TexGen file what the test cannot find (a direction without yarns) is the file's.
+      if (texgen_)
+        fabric->error("texgen", fmt::format("the yarns of {} cannot take the biaxial test: {}",
+                                            texgen_path(*fabric).string(), e.what()));
+      else
+        biaxial->error(e.what());
       return {};
     }
     if (auto title = root_.string("title"))
-      built.model.title = *title;
-    return std::move(built.model);
+      built->model.title = *title;
+    return std::move(built->model);
   }
 
 private:
+  /// Weave keys with a TexGen file, TexGen keys without one.
+  void misplaced_keys(const CheckedTable& t) const {
+    if (texgen_) {
+      for (std::string_view k : kWeaveOnlyKeys)
+        if (t.present(k))
+          t.error(k, fmt::format("'{}' applies only without texgen (a woven fabric built from "
+                                 "its parameters); with texgen the yarns come from the file",
+                                 k));
+    } else {
+      for (std::string_view k : kTexGenOnlyKeys)
+        if (t.present(k))
+          t.error(k, fmt::format("'{}' applies only with texgen = \"file.tg3\"", k));
+    }
+  }
+
+  /// The TexGen file as the reader opens it: relative to the deck's folder.
+  std::filesystem::path texgen_path(const CheckedTable& t) const {
+    const std::filesystem::path p(t.string("texgen").value_or(""));
+    return p.is_absolute() ? p : folder_ / p;
+  }
+
+  /// E or EA, nu or G, density; false when one is missing or bad (reported).
+  static bool material(const CheckedTable& t, YarnMaterial& m) {
+    bool ok = true;
+    if (auto v = t.number("density"))
+      m.density = *v;
+    else
+      ok = false;
+    const std::string_view stiffness = one_of(t, "E", "EA", "a number > 0, Pa or N");
+    if (stiffness.empty())
+      ok = false;
+    else if (auto v = t.number(stiffness))
+      (stiffness == "E" ? m.young : m.EA) = *v;
+    else
+      ok = false;
+    const std::string_view shear = one_of(t, "nu", "G", "Poisson ratio or shear modulus");
+    if (shear.empty())
+      ok = false;
+    else if (auto v = t.number(shear))
+      (shear == "nu" ? m.poisson : m.shear) = *v;
+    else
+      ok = false;
+    return ok;
+  }
+
+  /// repeats = [n1, n2, n3]: 1 to 3 integers >= 1, one per <Repeat> of each yarn.
+  static std::optional<std::array<int, 3>> repeats(const CheckedTable& t) {
+    std::array<int, 3> out{1, 1, 1};
+    const toml::node* n = t.node("repeats");
+    if (n == nullptr)
+      return out;
+    constexpr std::string_view kExpected = "expected an array of 1 to 3 integers >= 1 ([n1, n2, "
+                                           "n3], one per <Repeat> of each yarn, in file order)";
+    const toml::array* a = n->as_array();
+    if (a == nullptr || a->empty() || a->size() > 3) {
+      t.error("repeats", fmt::format("{}, found {}", kExpected, describe_found(*n)));
+      return std::nullopt;
+    }
+    bool ok = true;
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::node& v = *a->get(i);
+      const auto* integer = v.as_integer();
+      if (integer == nullptr || integer->get() < 1 || integer->get() > 10000) {
+        t.error("repeats", i,
+                fmt::format("expected an integer in [1, 10000], found {}", describe_found(v)));
+        ok = false;
+        continue;
+      }
+      out[i] = static_cast<int>(integer->get());
+    }
+    if (!ok)
+      return std::nullopt;
+    return out;
+  }
+
+  /// The fabric of [fabric] texgen; its problems, and the file's, are reported.
+  std::optional<Fabric> texgen_fabric(const CheckedTable& t, const InterfaceLawParameters& law,
+                                      ContactFormulation formulation) {
+    TexGenOptions o;
+    bool ok = material(t, o.material);
+    auto number = [&](std::string_view key, double& out) {
+      if (auto v = t.number(key))
+        out = *v;
+      else if (t.present(key))
+        ok = false;
+    };
+    number("reduce_lower_inertia", o.reduce_lower_inertia);
+    number("shear_factor", o.shear_factor);
+    number("contact_radius", o.contact_radius);
+    number("length_scale", o.length_scale);
+    o.elements_per_interval = static_cast<int>(t.integer("elements_per_interval").value_or(4));
+    o.textile = t.string("textile").value_or("");
+    o.rebuild_weaves = t.boolean("rebuild_weaves").value_or(false);
+    for (std::string_view k : {"elements_per_interval", "textile", "rebuild_weaves"})
+      ok = ok && (!t.present(k) || t.valid(k));
+    if (auto r = repeats(t))
+      o.repeats = *r;
+    else
+      ok = false;
+    o.contact_law = law;
+    o.contact = formulation;
+    if (!t.valid("texgen"))
+      return std::nullopt;
+    const std::filesystem::path file = texgen_path(t);
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec)) {
+      t.error("texgen",
+              fmt::format("expected a TexGen file (.tg3, relative to the deck's folder "
+                          "or absolute), found {} at {}",
+                          std::filesystem::exists(file, ec) ? "no regular file" : "no file",
+                          file.string()));
+      return std::nullopt;
+    }
+    // Bad deck values are reported above; the file is still read, with stand-ins, for its own.
+    if (!ok) {
+      o.material = {1.0, 0.0, 0.2, 0.0, 1.0};
+      o.reduce_lower_inertia = 0.1;
+      o.shear_factor = 5.0 / 6.0;
+      o.contact_radius = 0;
+      o.length_scale = 0;
+    }
+    try {
+      Fabric f = read_texgen(file, o);
+      if (!ok)
+        return std::nullopt;
+      return f;
+    } catch (const InputError& e) {
+      t.error("texgen", fmt::format("expected a TexGen file that reads cleanly, found {} "
+                                    "problem(s) in {} (listed next, at their place in it)",
+                                    e.messages().size(), file.string()));
+      for (const std::string& m : e.messages())
+        diagnostics_.attach(t.source("texgen"), m);
+    } catch (const std::invalid_argument& e) {
+      t.error("texgen", fmt::format("cannot build the fabric of {}: {}", file.string(), e.what()));
+    }
+    return std::nullopt;
+  }
+
   std::optional<WeaveParameters> weave_parameters(const CheckedTable& t) {
     WeaveParameters p;
     bool ok = true;
@@ -248,27 +458,13 @@ private:
     number("a", p.a);
     number("b", p.b);
     number("contact_radius", p.contact_radius);
-    number("density", p.material.density);
     number("reduce_lower_inertia", p.reduce_lower_inertia);
     number("shear_factor", p.shear_factor);
     p.elements_per_spacing = static_cast<int>(t.integer("elements_per_spacing").value_or(4));
     for (std::string_view k : {"n_warp", "n_weft", "elements_per_spacing"})
       ok = ok && (!t.present(k) || t.valid(k));
 
-    const std::string_view stiffness = one_of(t, "E", "EA", "a number > 0, Pa or N");
-    if (stiffness.empty())
-      ok = false;
-    else if (auto v = t.number(stiffness))
-      (stiffness == "E" ? p.material.young : p.material.EA) = *v;
-    else
-      ok = false;
-    const std::string_view shear = one_of(t, "nu", "G", "Poisson ratio or shear modulus");
-    if (shear.empty())
-      ok = false;
-    else if (auto v = t.number(shear))
-      (shear == "nu" ? p.material.poisson : p.material.shear) = *v;
-    else
-      ok = false;
+    ok = material(t, p.material) && ok;
 
     // Cross-field rules, checked when their values are good.
     if (t.valid("length_warp") && t.valid("spacing_weft") &&
@@ -465,16 +661,19 @@ private:
     return p;
   }
 
+  bool texgen_; ///< [fabric] names a TexGen file
   CheckedTable root_;
   Diagnostics& diagnostics_;
+  std::filesystem::path folder_; ///< the deck's folder: relative TexGen paths start there
 };
 
 } // namespace
 
-std::optional<Model> read_fabric_deck(const toml::table& table, Diagnostics& diagnostics) {
+std::optional<Model> read_fabric_deck(const toml::table& table, Diagnostics& diagnostics,
+                                      const std::filesystem::path& folder) {
   if (!table.contains("fabric"))
     return std::nullopt;
-  return FabricDeckBuilder(table, diagnostics).build();
+  return FabricDeckBuilder(table, diagnostics, folder).build();
 }
 
 } // namespace yarnsim::textile

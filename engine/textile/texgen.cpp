@@ -803,7 +803,7 @@ private:
       report(textile.position(), "expected yarns in the textile, found none");
     if (!problems_.empty())
       stop();
-    finish_fabric(fabric, radii, options_.contact_law);
+    finish_fabric(fabric, radii, options_.contact_law, options_.contact);
     return fabric;
   }
 

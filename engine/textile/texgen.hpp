@@ -47,7 +47,10 @@ struct TexGenOptions {
   std::array<int, 3> repeats{1, 1, 1};
   double length_scale = 0;   ///< m per file unit; 0: from the textile's GeometryScale
   double contact_radius = 0; ///< m; 0: half the section height of each yarn
-  InterfaceLawParameters contact_law{1.5e6, 1.0, 0.0}; ///< of the "warp-weft" spline contact
+  InterfaceLawParameters contact_law{1.5e6, 1.0, 0.0}; ///< of the "warp-weft" contact
+  /// Which formulation the "warp-weft" contact uses (finish_fabric): the splines (radius
+  /// contact_radius) or the surfaces (each yarn's section ellipse: half its Width and Height).
+  ContactFormulation contact = ContactFormulation::Spline;
   std::string textile; ///< name of the <Textile> to read; empty: the first one
   /// Build weave textiles from their pattern even when their yarns are written out.
   bool rebuild_weaves = false;

@@ -2,7 +2,7 @@
 // curves at k = 1, and the warp curve at k = 2 matches the weft curve at k = 0.5 (the fabric is
 // the same under x <-> y with z -> -z). Also: the same numbers on 1 and 2 threads, and the
 // explicit path against the implicit one (issue 6's acceptance, on a 3 x 3 weave).
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/textile/biaxial.hpp"

@@ -4,7 +4,7 @@
 // whether the checkpoint is kept in memory or read back from checkpoint.h5. And the serial writer
 // that overlaps output with the next increment (engine/output/serial_writer.*).
 
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/output/checkpoint_file.hpp"
 #include "engine/output/serial_writer.hpp"
 #include "engine/solver/checkpoint.hpp"

@@ -1,4 +1,4 @@
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/model/model.hpp"
 
 #include <algorithm>

@@ -3,7 +3,7 @@
 // frequencies at the stable step; the stability limit, mass scaling, output cadence and thread
 // determinism.
 #include "beam_models.hpp"
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/solver/simulation.hpp"
 #include "signal_analysis.hpp"
 

@@ -3,7 +3,7 @@
 
 #include "engine/assembly/assembler.hpp"
 #include "engine/contact/contact_set.hpp"
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/solver/simulation.hpp"
 
 #include <filesystem>

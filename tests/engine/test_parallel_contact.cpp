@@ -3,7 +3,7 @@
 // carrying a uniform load through contact, a yarn turned from crossing to parallel against
 // another, and the double helix of examples/double-helix.toml.
 #include "beam_models.hpp"
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/output/checkpoint_file.hpp"
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"

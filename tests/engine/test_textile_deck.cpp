@@ -1,6 +1,6 @@
 // Fabric decks (engine/textile/fabric_deck.hpp through read_deck) and the study's examples.
 
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/weave.hpp"
 

@@ -1,11 +1,11 @@
 // libFuzzer target: the TOML deck reader on arbitrary text (scripts/fuzz).
 //
-// The contract (engine/model/deck.hpp): bad input throws InputError, which main() maps to exit
+// The contract (engine/input/read_deck.hpp): bad input throws InputError, which main() maps to exit
 // code 2 with file:line:col messages. So besides crashes and sanitizer reports, any other
 // exception escaping read_deck_string is a finding: the command line would report it as an
 // internal failure (exit 1) without saying where the deck is wrong.
 
-#include "engine/model/deck.hpp"
+#include "engine/input/read_deck.hpp"
 
 #include <cstdint>
 #include <cstdio>

@@ -1,0 +1,116 @@
+#include "engine/run/check.hpp"
+
+#include "engine/contact/spline_contact_set.hpp"
+#include "engine/contact/surface_contact_set.hpp"
+#include "engine/solver/simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+namespace yarnsim {
+
+namespace {
+
+const char* step_name(StepType t) {
+  return t == StepType::Explicit ? "explicit" : t == StepType::Static ? "static" : "dynamic";
+}
+
+std::string law_text(const InterfaceLawParameters& law) {
+  return law.exponent == 1 ? fmt::format("linear, penalty {:g} N/m", law.penalty)
+                           : fmt::format("power, penalty {:g} N/m^{:g}", law.penalty, law.exponent);
+}
+
+/// One formulation's figures at the initial configuration.
+std::string contact_set_line(const char* name, const ContactSet& set) {
+  const ContactSummary& s = set.summary();
+  return fmt::format("  {} contact at the initial configuration: {} candidate pair(s) from the "
+                     "broad phase, {} active, smallest gap {}\n",
+                     name, s.candidates, s.active,
+                     std::isfinite(s.min_gap) ? fmt::format("{:.6g} mm", 1e3 * s.min_gap)
+                                              : std::string("none (no projection in range)"));
+}
+
+} // namespace
+
+std::string initial_clearance_line(const Simulation& sim) {
+  if (!sim.contact())
+    return {};
+  return fmt::format("{} contact: initial clearance {:.6g} mm (smallest gap the contact sees "
+                     "before loading{})\n",
+                     sim.contact()->formulations(), 1e3 * sim.initial_contact_clearance(),
+                     sim.model().spline_contacts.empty() ? "" : "; the splines' effective gap");
+}
+
+std::string check_report(const Model& model) {
+  const Simulation sim(model);
+  std::string out;
+  const std::size_t n = model.nodes.size();
+  out += fmt::format("model: {} nodes, {} elements (3-node beams), {} DOF ({} free, {} fixed or "
+                     "prescribed)\n",
+                     n, model.elements.size(), 6 * n, sim.assembler().n_equations(),
+                     6 * n - static_cast<std::size_t>(sim.assembler().n_equations()));
+  if (model.biaxial) {
+    const BiaxialTest& b = *model.biaxial;
+    out +=
+        fmt::format("yarns: {} warp + {} weft (biaxial test, k = {:g}, to {:g} % strain)\n",
+                    b.warp_start.size(), b.weft_start.size(), b.strain_ratio, 100 * b.max_strain);
+  }
+  out += fmt::format("sections: {}, node sets: {}, splines: {}, surfaces: {}, monitors: {}\n",
+                     model.sections.size(), model.node_sets.size(), model.splines.size(),
+                     model.surfaces.size(), model.monitors.size());
+  out += fmt::format("contact definitions: {}\n",
+                     model.spline_contacts.size() + model.surface_contacts.size());
+  for (const SplineContactDefinition& c : model.spline_contacts)
+    out += fmt::format("  spline contact '{}': {} x {} splines{}, {}, margin {:.6g} mm\n", c.name,
+                       c.group_a.size(), c.self_contact ? c.group_a.size() : c.group_b.size(),
+                       c.self_contact ? " (self contact)" : "", law_text(c.law), 1e3 * c.margin);
+  for (const SurfaceContactDefinition& c : model.surface_contacts)
+    out += fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm\n", c.name,
+                       c.group_a.size(), c.group_b.size(), law_text(c.law), 1e3 * c.margin);
+  if (const ContactStage* contact = sim.contact()) {
+    if (const SplineContactSet* s = contact->spline())
+      out += contact_set_line("spline", *s);
+    if (const SurfaceContactSet* s = contact->surface())
+      out += contact_set_line("surface", *s);
+    out += initial_clearance_line(sim);
+  }
+  // The explicit path's stable step: of each explicit step (with its mass scaling), or of the
+  // model as it is when no step is explicit.
+  bool any_explicit = false;
+  double start = 0;
+  out += fmt::format("steps: {}\n", model.steps.size());
+  for (std::size_t k = 0; k < model.steps.size(); ++k) {
+    const SolutionStep& s = model.steps[k];
+    if (s.type == StepType::Explicit) {
+      any_explicit = true;
+      const ExplicitStatus e = sim.explicit_stability(s);
+      out += fmt::format("  step {}: explicit, t = {:g} to {:g} s, dt {:g} s ({} increments); "
+                         "stable step {:.4g} s (safety {:g} x critical {:.4g} s, set by {}){}\n",
+                         k + 1, start, s.end_time, s.dt_initial,
+                         static_cast<long>(std::ceil((s.end_time - start) / s.dt_initial - 1e-9)),
+                         e.stable_dt, s.safety_factor, e.critical_dt, e.limited_by,
+                         s.mass_scaling_dt > 0
+                             ? fmt::format(" with mass scaled to {:g} s: {:.3g} % added mass",
+                                           s.mass_scaling_dt, e.added_mass_percent)
+                             : std::string());
+    } else {
+      out += fmt::format("  step {}: {}, t = {:g} to {:g} s, dt {:g} s (min {:g}, max {:g}), "
+                         "{} Newton iterations at most\n",
+                         k + 1, step_name(s.type), start, s.end_time, s.dt_initial, s.dt_min,
+                         s.dt_max, s.max_iterations);
+    }
+    start = s.end_time;
+  }
+  if (!any_explicit) {
+    SolutionStep plain;
+    plain.type = StepType::Explicit;
+    const ExplicitStatus e = sim.explicit_stability(plain);
+    out += fmt::format("explicit path (no step uses it): stable step {:.4g} s without mass "
+                       "scaling (safety {:g} x critical {:.4g} s, set by {})\n",
+                       e.stable_dt, plain.safety_factor, e.critical_dt, e.limited_by);
+  }
+  return out;
+}
+
+} // namespace yarnsim
