@@ -1,3 +1,4 @@
+#include "deck_errors.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/model/model.hpp"
 
@@ -27,23 +28,10 @@ std::string where(std::string_view deck, std::string_view needle, std::size_t oc
   return "deck.toml:" + std::to_string(line) + ":" + std::to_string(at - line_start + 1) + ": ";
 }
 
-/// The messages of the InputError a deck throws; a test failure when it reads cleanly.
 std::vector<std::string> errors_of(std::string_view deck) {
-  try {
-    read_deck_string(deck, "deck.toml");
-  } catch (const InputError& e) {
-    return e.messages();
-  }
-  ADD_FAILURE() << "deck read without errors:\n" << deck;
-  return {};
+  return test::errors_of(deck, "deck.toml");
 }
-
-std::string joined(const std::vector<std::string>& messages) {
-  std::string out;
-  for (const auto& m : messages)
-    out += m + "\n";
-  return out;
-}
+using test::joined;
 
 // A small valid deck; tests break one thing at a time.
 constexpr std::string_view kValid = R"(title = "two elements"

@@ -1,5 +1,6 @@
 // Fabric decks (engine/textile/fabric_deck.hpp through read_deck) and the study's examples.
 
+#include "deck_errors.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/weave.hpp"
@@ -15,21 +16,9 @@ namespace {
 const std::filesystem::path kExamples = std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples";
 
 std::vector<std::string> errors_of(std::string_view deck) {
-  try {
-    read_deck_string(deck, "fabric.toml");
-  } catch (const InputError& e) {
-    return e.messages();
-  }
-  ADD_FAILURE() << "deck read without errors:\n" << deck;
-  return {};
+  return test::errors_of(deck, "fabric.toml");
 }
-
-std::string joined(const std::vector<std::string>& messages) {
-  std::string out;
-  for (const auto& m : messages)
-    out += m + "\n";
-  return out;
-}
+using test::joined;
 
 constexpr std::string_view kValid = R"(title = "small fabric"
 [fabric]

@@ -1,6 +1,7 @@
 // Fabric decks whose yarns come from a TexGen file ([fabric] texgen, engine/textile/fabric_deck.hpp
 // through read_deck), on the sample files of ../shared/data/texgen/ and on broken input.
 
+#include "deck_errors.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/texgen.hpp"
@@ -42,21 +43,9 @@ std::string with(std::string_view from, std::string_view to) {
 }
 
 std::vector<std::string> errors_of(std::string_view deck, const std::string& name = kDeckName) {
-  try {
-    read_deck_string(deck, name);
-  } catch (const InputError& e) {
-    return e.messages();
-  }
-  ADD_FAILURE() << "deck read without errors:\n" << deck;
-  return {};
+  return test::errors_of(deck, name);
 }
-
-std::string joined(const std::vector<std::string>& messages) {
-  std::string out;
-  for (const auto& m : messages)
-    out += m + "\n";
-  return out;
-}
+using test::joined;
 
 bool has(const std::vector<std::string>& messages, std::string_view text) {
   for (const auto& m : messages)
