@@ -24,20 +24,24 @@ Model build(const toml::table& table, deck::Diagnostics& diagnostics,
 
 } // namespace
 
-Model read_deck(const std::filesystem::path& file) {
-  deck::Diagnostics diagnostics(file.string());
+toml::table parse_deck_file(const std::filesystem::path& file) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec))
     throw InputError(
         {fmt::format("{}: cannot read the deck: {}", file.string(),
                      std::filesystem::exists(file, ec) ? "not a regular file" : "no such file")});
-  toml::table table;
   try {
-    table = toml::parse_file(file.string());
+    return toml::parse_file(file.string());
   } catch (const toml::parse_error& e) {
+    deck::Diagnostics diagnostics(file.string());
     diagnostics.error(e.source(), "", fmt::format("syntax error: {}", e.description()));
     throw InputError(diagnostics.messages());
   }
+}
+
+Model read_deck(const std::filesystem::path& file) {
+  const toml::table table = parse_deck_file(file);
+  deck::Diagnostics diagnostics(file.string());
   return build(table, diagnostics, file.parent_path());
 }
 

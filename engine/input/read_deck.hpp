@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <string_view>
+#include <toml++/toml.h>
 
 namespace yarnsim {
 
@@ -16,6 +17,11 @@ namespace yarnsim {
 /// the reading at the first one, as the rest of the file cannot be trusted). A deck with a
 /// top-level [fabric] table is a fabric deck; any other is a model deck.
 Model read_deck(const std::filesystem::path& file);
+
+/// The TOML table of a deck file, before any key is checked. Throws InputError for a file that
+/// does not exist or is not a regular file, and for a syntax error ("file:line:col: syntax
+/// error: ...").
+toml::table parse_deck_file(const std::filesystem::path& file);
 
 /// As read_deck, from text; `source_name` stands for the file name in messages (for tests), and
 /// its folder is where the relative paths of the deck (a fabric deck's `texgen`) start.

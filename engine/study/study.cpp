@@ -80,14 +80,8 @@ const char* path_name(StudyPath p) {
 Model read_case_deck(const std::filesystem::path& file, StudyPath path) {
   if (path == StudyPath::Deck)
     return read_deck(file);
+  toml::table table = parse_deck_file(file);
   deck::Diagnostics diagnostics(file.string());
-  toml::table table;
-  try {
-    table = toml::parse_file(file.string());
-  } catch (const toml::parse_error& e) {
-    diagnostics.error(e.source(), "", fmt::format("syntax error: {}", e.description()));
-    throw InputError(diagnostics.messages());
-  }
   toml::table* biaxial = table["biaxial"].as_table();
   if (!table.contains("fabric") || biaxial == nullptr)
     throw InputError({fmt::format("{}: a case with 'paths' needs a fabric deck with [fabric] and "

@@ -14,13 +14,6 @@ rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fail=0
 steps=-1
 
-expect() { # label expected-code args...
-  local label="$1" code="$2"; shift 2
-  "$yarnsim" "$@" > "$label.log" 2>&1
-  local got=$?
-  [ "$got" -eq "$code" ] || { echo "FAIL $label: exit $got, expected $code"; cat "$label.log"; fail=1; }
-}
-
 # The data row (1 = first after the header) of a CSV.
 csv_row() { sed -n "$(($2 + 1))p" "$1"; }
 

@@ -14,14 +14,6 @@ rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fail=0
 steps=-1
 
-# Runs yarnsim with the arguments; fails the test unless it exits with the expected code.
-expect() { # label expected-code args...
-  local label="$1" code="$2"; shift 2
-  "$yarnsim" "$@" > "$label.log" 2>&1
-  local got=$?
-  [ "$got" -eq "$code" ] || { echo "FAIL $label: exit $got, expected $code"; cat "$label.log"; fail=1; }
-}
-
 # The restarted folder holds exactly what the straight run wrote.
 same_results() { # label straight-dir restarted-dir
   local label="$1" a="$2" b="$3" f

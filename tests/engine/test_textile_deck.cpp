@@ -42,11 +42,7 @@ type = "static"
 )";
 
 std::string with(std::string_view from, std::string_view to) {
-  std::string deck(kValid);
-  const std::size_t at = deck.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  deck.replace(at, from.size(), to);
-  return deck;
+  return test::with(kValid, from, to);
 }
 
 TEST(FabricDeck, SmallDeckBuildsTheWeaveAndTheTest) {

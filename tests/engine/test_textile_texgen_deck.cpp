@@ -35,11 +35,7 @@ type = "static"
 )";
 
 std::string with(std::string_view from, std::string_view to) {
-  std::string deck(kValid);
-  const std::size_t at = deck.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  deck.replace(at, from.size(), to);
-  return deck;
+  return test::with(kValid, from, to);
 }
 
 std::vector<std::string> errors_of(std::string_view deck, const std::string& name = kDeckName) {
@@ -47,12 +43,7 @@ std::vector<std::string> errors_of(std::string_view deck, const std::string& nam
 }
 using test::joined;
 
-bool has(const std::vector<std::string>& messages, std::string_view text) {
-  for (const auto& m : messages)
-    if (m.find(text) != std::string::npos)
-      return true;
-  return false;
-}
+using test::has;
 
 /// A folder of its own under the system's temporary folder, emptied.
 std::filesystem::path scratch(const std::string& name) {

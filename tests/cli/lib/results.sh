@@ -9,6 +9,15 @@ export HDF5_USE_FILE_LOCKING=FALSE
 now() { date +%s.%N; }
 elapsed() { awk -v a="$1" -v b="$(now)" 'BEGIN { printf "%.2f", b - a }'; }
 
+# Runs $yarnsim with the arguments, output into LABEL.log; sets fail=1 (and shows the log) unless
+# it exits with the expected code.
+expect() { # label expected-code args...
+  local label="$1" code="$2"; shift 2
+  "$yarnsim" "$@" > "$label.log" 2>&1
+  local got=$?
+  [ "$got" -eq "$code" ] || { echo "FAIL $label: exit $got, expected $code"; cat "$label.log"; fail=1; }
+}
+
 require_tools() { # tool...
   local t
   for t in "$@"; do
