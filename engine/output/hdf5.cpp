@@ -243,6 +243,12 @@ void write_dataset(hid_t parent, const std::string& name, std::span<const int> d
   write_dataset_impl(parent, name, data.data(), data.size(), H5T_NATIVE_INT, H5T_STD_I32LE, dims);
 }
 
+void write_dataset(hid_t parent, const std::string& name, std::span<const float> data,
+                   std::span<const hsize_t> dims) {
+  write_dataset_impl(parent, name, data.data(), data.size(), H5T_NATIVE_FLOAT, H5T_IEEE_F32LE,
+                     dims);
+}
+
 void write_string_attribute(hid_t object, const std::string& name, std::string_view value) {
   // Variable-length: the text lives in the global heap, so a long deck does not hit the 64 KiB
   // limit of compact attribute storage; h5py reads it as str.

@@ -81,6 +81,9 @@ void write_dataset(hid_t parent, const std::string& name, std::span<const double
                    std::span<const hsize_t> dims);
 void write_dataset(hid_t parent, const std::string& name, std::span<const int> data,
                    std::span<const hsize_t> dims);
+/// As float32 (points for drawing).
+void write_dataset(hid_t parent, const std::string& name, std::span<const float> data,
+                   std::span<const hsize_t> dims);
 
 /// Writes (or replaces) a scalar attribute on object: a variable-length UTF-8 string, a 32-bit
 /// integer or a double.

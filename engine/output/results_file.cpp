@@ -42,6 +42,53 @@ void require_size(std::string_view what, Eigen::Index found, Eigen::Index expect
         fmt::format("results: {} has {} entries, expected {}", what, found, expected));
 }
 
+/// Checks the mesh against its node count; throws std::invalid_argument naming what is wrong.
+void check_mesh(const Mesh& mesh, int n_nodes) {
+  require_size("mesh node_radius", mesh.node_radius.size(), n_nodes);
+  for (std::size_t e = 0; e < mesh.elements.size(); ++e)
+    for (int node : mesh.elements[e])
+      if (node < 0 || node >= n_nodes)
+        throw std::invalid_argument(
+            fmt::format("results: mesh element {} refers to node {}, expected 0 <= node < {}", e,
+                        node, n_nodes));
+  if (!mesh.node_sections.empty() || !mesh.reference_triads.empty()) {
+    require_size("mesh node_sections", static_cast<Eigen::Index>(mesh.node_sections.size()),
+                 n_nodes);
+    require_size("mesh reference_triads", static_cast<Eigen::Index>(mesh.reference_triads.size()),
+                 n_nodes);
+    for (std::size_t i = 0; i < mesh.node_sections.size(); ++i) {
+      const NodeSection& s = mesh.node_sections[i];
+      if (!(s.a >= 0 && s.b >= 0 && s.exponent > 0))
+        throw std::invalid_argument(fmt::format(
+            "results: node {} has section a = {}, b = {}, exponent = {}; expected a, b >= 0 and "
+            "exponent > 0",
+            i, s.a, s.b, s.exponent));
+    }
+  }
+  for (std::size_t t = 0; t < mesh.contact_tubes.size(); ++t) {
+    const ContactTube& tube = mesh.contact_tubes[t];
+    if (tube.nodes.size() < 3)
+      throw std::invalid_argument(fmt::format(
+          "results: contact tube {} has {} nodes, expected at least 3", t, tube.nodes.size()));
+    for (int node : tube.nodes)
+      if (node < 0 || node >= n_nodes)
+        throw std::invalid_argument(
+            fmt::format("results: contact tube {} refers to node {}, expected 0 <= node < {}", t,
+                        node, n_nodes));
+  }
+}
+
+void write_quads(hid_t group, const std::string& name,
+                 const std::vector<std::array<int, 4>>& quads) {
+  h5::write_dataset(group, name, std::span<const int>(quads.data()->data(), 4 * quads.size()),
+                    std::array<hsize_t, 2>{quads.size(), 4});
+}
+
+void write_points(hid_t group, const std::string& name, const std::vector<float>& xyz) {
+  h5::write_dataset(group, name, std::span<const float>(xyz),
+                    std::array<hsize_t, 2>{xyz.size() / 3, 3});
+}
+
 std::string xml_escape(std::string_view text) {
   std::string out;
   out.reserve(text.size());
@@ -81,6 +128,25 @@ void append_h5_attribute(std::string& xml, std::string_view name, std::string_vi
                  name, type, center, dimensions, kH5Name, h5_path);
 }
 
+/// A Quadrilateral grid of one step: connectivity `quads_path` (shared by all steps), float32
+/// points at `points_path`.
+void append_quad_grid(std::string& xml, std::string_view name, double time, int n_quads,
+                      std::string_view quads_path, int n_points, std::string_view points_path) {
+  fmt::format_to(std::back_inserter(xml),
+                 "      <Grid Name=\"{0}\" GridType=\"Uniform\">\n"
+                 "        <Time Value=\"{1}\"/>\n"
+                 "        <Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"{2}\">\n"
+                 "          <DataItem Dimensions=\"{2} 4\" NumberType=\"Int\" Precision=\"4\" "
+                 "Format=\"HDF\">{3}:{4}</DataItem>\n"
+                 "        </Topology>\n"
+                 "        <Geometry GeometryType=\"XYZ\">\n"
+                 "          <DataItem Dimensions=\"{5} 3\" NumberType=\"Float\" Precision=\"4\" "
+                 "Format=\"HDF\">{3}:{6}</DataItem>\n"
+                 "        </Geometry>\n"
+                 "      </Grid>\n",
+                 name, time, n_quads, kH5Name, quads_path, n_points, points_path);
+}
+
 /// A grid-centred scalar (ParaView field data), inline in the XML.
 void append_grid_scalar(std::string& xml, std::string_view name, double value) {
   fmt::format_to(std::back_inserter(xml),
@@ -98,14 +164,10 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
     : h5_path_(dir / kH5Name), xdmf_path_(dir / kXdmfName),
       n_nodes_(static_cast<int>(mesh.reference_positions.cols())),
       n_elements_(static_cast<int>(mesh.elements.size())),
-      reference_positions_(mesh.reference_positions), xdmf_interval_(xdmf_interval) {
-  require_size("mesh node_radius", mesh.node_radius.size(), n_nodes_);
-  for (std::size_t e = 0; e < mesh.elements.size(); ++e)
-    for (int node : mesh.elements[e])
-      if (node < 0 || node >= n_nodes_)
-        throw std::invalid_argument(
-            fmt::format("results: mesh element {} refers to node {}, expected 0 <= node < {}", e,
-                        node, n_nodes_));
+      reference_positions_(mesh.reference_positions), node_sections_(mesh.node_sections),
+      reference_triads_(mesh.reference_triads), contact_tubes_(mesh.contact_tubes),
+      xdmf_interval_(xdmf_interval) {
+  check_mesh(mesh, n_nodes_);
 
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
@@ -138,6 +200,7 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
                     std::array<hsize_t, 2>{n_elements, 3});
   h5::write_dataset(group.id(), "segments", std::span<const int>(segments),
                     std::array<hsize_t, 2>{2 * n_elements, 2});
+  write_drawing_mesh(group.id(), mesh);
   group.close();
 
   steps_group_ = h5::create_group(root, "steps");
@@ -151,7 +214,10 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
     : h5_path_(dir / kH5Name), xdmf_path_(dir / kXdmfName),
       n_nodes_(static_cast<int>(mesh.reference_positions.cols())),
       n_elements_(static_cast<int>(mesh.elements.size())),
-      reference_positions_(mesh.reference_positions), xdmf_interval_(xdmf_interval) {
+      reference_positions_(mesh.reference_positions), node_sections_(mesh.node_sections),
+      reference_triads_(mesh.reference_triads), contact_tubes_(mesh.contact_tubes),
+      xdmf_interval_(xdmf_interval) {
+  check_mesh(mesh, n_nodes_);
   if (!std::filesystem::exists(h5_path_))
     throw std::runtime_error(
         fmt::format("results: cannot continue {}: the file is missing", h5_path_.string()));
@@ -168,6 +234,9 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
           "results: cannot continue {}: its mesh has {} nodes and {} elements, the model {} and {}",
           h5_path_.string(), nodes.empty() ? 0 : nodes[0], elements.empty() ? 0 : elements[0],
           n_nodes_, n_elements_));
+    // A file written before the drawing meshes existed gets them now; its earlier steps keep
+    // drawing the centre lines only.
+    write_drawing_mesh(group.id(), mesh);
   }
   h5::write_string_attribute(root, "deck_text", meta.deck_text);
   h5::write_string_attribute(root, "deck_path", meta.deck_path);
@@ -199,7 +268,8 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
     h5::read_doubles(group.id(), "contacts/gap", &dims);
     append_xdmf_grids(name, h5::read_double_attribute(group.id(), "time"),
                       h5::read_int_attribute(group.id(), "increment"), scalars,
-                      dims.empty() ? 0 : static_cast<int>(dims[0]));
+                      dims.empty() ? 0 : static_cast<int>(dims[0]),
+                      h5::exists(group.id(), "surface"), h5::exists(group.id(), "contact_tube"));
   }
   steps_written_ = from.keep_steps;
   h5::flush(root);
@@ -269,10 +339,21 @@ void ResultsFile::write_step(const StepResults& step) {
   h5::write_dataset(contact_group.id(), "vertices", std::span<const int>(vertices),
                     std::array<hsize_t, 1>{static_cast<hsize_t>(n_contacts)});
   contact_group.close();
+  const bool surface = !node_sections_.empty();
+  if (surface) {
+    h5::Handle surface_group = h5::create_group(g, "surface");
+    write_points(surface_group.id(), "points",
+                 surface_points(step.positions, step.rotations, reference_triads_, node_sections_));
+  }
+  const bool tubes = !contact_tubes_.empty();
+  if (tubes) {
+    h5::Handle tube_group = h5::create_group(g, "contact_tube");
+    write_points(tube_group.id(), "points", tube_points(step.positions, contact_tubes_));
+  }
   group.close();
   h5::flush(file_.id());
 
-  append_xdmf_grids(name, step.time, step.increment, step.scalars, n_contacts);
+  append_xdmf_grids(name, step.time, step.increment, step.scalars, n_contacts, surface, tubes);
   ++steps_written_;
   // The XDMF is rewritten whole, so rewriting it at every step of a long run would cost the
   // square of the step count: at most once a second, and always at the end. The .h5 holds
@@ -289,7 +370,7 @@ void ResultsFile::write_step(const StepResults& step) {
 
 void ResultsFile::append_xdmf_grids(const std::string& name, double time, int increment,
                                     const std::vector<std::pair<std::string, double>>& scalars,
-                                    int n_contacts) {
+                                    int n_contacts, bool surface, bool tubes) {
   // This step's grids in results.xdmf. Connectivity and radius are the mesh's, shared by all
   // steps. A step without contacts has no "contacts" grid: the readers then show no contact
   // block at that time (an empty HDF5 DataItem makes the XDMF 2 reader report an error).
@@ -351,6 +432,30 @@ void ResultsFile::append_xdmf_grids(const std::string& name, double time, int in
                         path + "/force");
     xdmf_contacts_ += "      </Grid>\n";
   }
+  if (surface)
+    append_quad_grid(xdmf_surfaces_, "surfaces", time, n_surface_quads_, "/mesh/surface_quads",
+                     kRingPoints * n_nodes_, step_path + "/surface/points");
+  if (tubes)
+    append_quad_grid(xdmf_tubes_, "contact_tubes", time, n_tube_quads_, "/mesh/contact_tube_quads",
+                     n_tube_points_, step_path + "/contact_tube/points");
+}
+
+void ResultsFile::write_drawing_mesh(hid_t mesh_group, const Mesh& mesh) {
+  if (!mesh.node_sections.empty()) {
+    const std::vector<std::array<int, 4>> quads = surface_quads(mesh.elements);
+    n_surface_quads_ = static_cast<int>(quads.size());
+    if (!h5::exists(mesh_group, "surface_quads"))
+      write_quads(mesh_group, "surface_quads", quads);
+  }
+  if (!mesh.contact_tubes.empty()) {
+    const std::vector<std::array<int, 4>> quads = tube_quads(mesh.contact_tubes);
+    n_tube_quads_ = static_cast<int>(quads.size());
+    n_tube_points_ = 0;
+    for (const ContactTube& tube : mesh.contact_tubes)
+      n_tube_points_ += tube_point_count(tube);
+    if (!h5::exists(mesh_group, "contact_tube_quads"))
+      write_quads(mesh_group, "contact_tube_quads", quads);
+  }
 }
 
 void ResultsFile::close(std::string_view status, std::string_view message) {
@@ -381,8 +486,15 @@ void ResultsFile::write_xdmf() const {
         << xdmf_yarns_
         << "    </Grid>\n"
            "    <Grid Name=\"contacts\" GridType=\"Collection\" CollectionType=\"Temporal\">\n"
-        << xdmf_contacts_
-        << "    </Grid>\n"
+        << xdmf_contacts_ << "    </Grid>\n";
+    if (!node_sections_.empty())
+      out << "    <Grid Name=\"surfaces\" GridType=\"Collection\" CollectionType=\"Temporal\">\n"
+          << xdmf_surfaces_ << "    </Grid>\n";
+    if (!contact_tubes_.empty())
+      out << "    <Grid Name=\"contact_tubes\" GridType=\"Collection\" "
+             "CollectionType=\"Temporal\">\n"
+          << xdmf_tubes_ << "    </Grid>\n";
+    out << ""
            "  </Domain>\n"
            "</Xdmf>\n";
     out.close();

@@ -3,11 +3,13 @@
 // end status) and dir/results.xdmf (XDMF 3 over the .h5, opened by ParaView 5.11 with either
 // XDMF reader; apply Tube with radius "radius" to draw the yarns, Glyph on "contacts").
 //
-// results.xdmf holds two temporal collections: "yarns" (a Polyline grid per step: the 3-node
-// elements as 2-node segments, node and cell attributes, the step's scalars as field data) and
-// "contacts" (a Polyvertex grid for each step that has contact points). ParaView's XDMF reader
-// shows them as blocks "yarns" and "contacts"; Xdmf3ReaderS merges them as pieces of one
-// dataset, Xdmf3ReaderT as two unnamed blocks.
+// results.xdmf holds up to four temporal collections: "yarns" (a Polyline grid per step: the
+// 3-node elements as 2-node segments, node and cell attributes, the step's scalars as field
+// data), "contacts" (a Polyvertex grid for each step that has contact points), "surfaces" (each
+// yarn's true surface, a Quadrilateral grid per step, when the mesh has node sections) and
+// "contact_tubes" (the spline contact's tubes, when there are any); yarn_surface.hpp describes the
+// last two. ParaView's XDMF reader shows them as blocks of those names; Xdmf3ReaderS merges them
+// as pieces of one dataset, Xdmf3ReaderT as unnamed blocks.
 //
 // Layout of results.h5 (arrays node-major, shape (rows, columns), float64 unless noted):
 //   /                       attributes deck_text, deck_path, version, threads (int32), status,
@@ -17,6 +19,8 @@
 //   /mesh/segments            (2 n_elements, 2) int32  element e -> segments 2e (first, middle)
 //                                                     and 2e+1 (middle, last)
 //   /mesh/node_radius         (n_nodes)             m
+//   /mesh/surface_quads       (n_quads, 4) int32    ring point indices (with node sections)
+//   /mesh/contact_tube_quads  (n_tube_quads, 4) int32  (with contact tubes)
 //   /steps/<000000>           attributes increment (int32), time (s), one double per scalar
 //                             (in creation order, tracked)
 //     positions, displacement, rotations (n_nodes, 3)            m, m, rad (rotation vector)
@@ -26,10 +30,13 @@
 //     contacts/position, contacts/normal (n_contacts, 3)        m, -
 //     contacts/gap, contacts/force (n_contacts)                 m, N
 //     contacts/vertices (n_contacts) int32                       0 .. n_contacts-1 (for XDMF)
+//     surface/points (12 n_nodes, 3) float32                      m, ring points, node-major
+//     contact_tube/points (n_tube_points, 3) float32              m
 // Each step is flushed to disk when write_step returns; HDF5 file locking is off so ParaView can
 // read while the run writes.
 
 #include "engine/output/hdf5.hpp"
+#include "engine/output/yarn_surface.hpp"
 
 #include <Eigen/Core>
 
@@ -48,6 +55,11 @@ struct Mesh {
   Eigen::Matrix3Xd reference_positions;     ///< 3 x n_nodes, m
   std::vector<std::array<int, 3>> elements; ///< 3-node beams: first, middle, last (0-based)
   Eigen::VectorXd node_radius;              ///< n_nodes, m (for ParaView's Tube filter)
+  /// For the yarn surface (yarn_surface.hpp), both n_nodes long or both empty (no surface): the
+  /// section drawn at each node and its reference triad (columns: section axes 1, 2, beam axis).
+  std::vector<NodeSection> node_sections;
+  std::vector<Eigen::Matrix3d> reference_triads;
+  std::vector<ContactTube> contact_tubes; ///< the spline contacts' centre lines (may be empty)
 };
 
 /// What produced the results.
@@ -123,16 +135,25 @@ public:
 
 private:
   void write_xdmf() const;
+  /// Writes /mesh/surface_quads and /mesh/contact_tube_quads where the mesh has them and the file
+  /// does not yet, and sets the quad and point counts.
+  void write_drawing_mesh(hid_t mesh_group, const Mesh& mesh);
   /// Appends the XDMF grids of step `name` (under /steps) to the two collections.
   void append_xdmf_grids(const std::string& name, double time, int increment,
-                         const std::vector<std::pair<std::string, double>>& scalars,
-                         int n_contacts);
+                         const std::vector<std::pair<std::string, double>>& scalars, int n_contacts,
+                         bool surface, bool tubes);
 
   std::filesystem::path h5_path_;
   std::filesystem::path xdmf_path_;
   int n_nodes_ = 0;
   int n_elements_ = 0;
   Eigen::Matrix3Xd reference_positions_; ///< for the displacement field
+  std::vector<NodeSection> node_sections_;
+  std::vector<Eigen::Matrix3d> reference_triads_;
+  std::vector<ContactTube> contact_tubes_;
+  int n_surface_quads_ = 0;
+  int n_tube_points_ = 0;
+  int n_tube_quads_ = 0;
   int steps_written_ = 0;
   std::chrono::steady_clock::time_point last_xdmf_{};
   std::chrono::milliseconds xdmf_interval_{1000};
@@ -140,6 +161,8 @@ private:
   /// The <Grid>s of the written steps in the two temporal collections of results.xdmf.
   std::string xdmf_yarns_;
   std::string xdmf_contacts_;
+  std::string xdmf_surfaces_;
+  std::string xdmf_tubes_;
   h5::Handle file_; ///< declared before steps_group_: destroyed after it
   h5::Handle steps_group_;
 };

@@ -491,6 +491,23 @@ double node_radius_of(const Section& s, double element_length) {
   return 0.05 * element_length; // stiffness-only section: a thin tube for drawing
 }
 
+/// The section drawn on the yarn surface (results.xdmf): the contact's shape, or for a
+/// stiffness-only section the thin tube of node_radius_of.
+output::NodeSection drawn_section(const Section& s, double element_length) {
+  switch (s.a > 0 ? s.shape : SectionShape::General) {
+  case SectionShape::Circle:
+    return {s.a, s.a, 2.0};
+  case SectionShape::Ellipse:
+    return {s.a, s.b, 2.0};
+  case SectionShape::SuperEllipse:
+    return {s.a, s.b, s.exponent};
+  case SectionShape::General:
+    break;
+  }
+  const double r = node_radius_of(s, element_length);
+  return {r, r, 2.0};
+}
+
 /// Reads the checkpoint of options.restart_from, checks it belongs to this deck, and puts the
 /// earlier run's results.h5, CSV files and checkpoint into the output folder when it is another
 /// one. Throws output::RestartError.
@@ -550,14 +567,25 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
   for (int i = 0; i < n; ++i)
     mesh.reference_positions.col(i) = model.nodes[i];
   mesh.node_radius = Eigen::VectorXd::Zero(n);
+  mesh.node_sections.resize(n);
   for (std::size_t e = 0; e < model.elements.size(); ++e) {
     const BeamElement& el = model.elements[e];
     mesh.elements.push_back(el.nodes);
     const double length = sim.assembler().references()[e].weight.sum();
-    for (int node : el.nodes)
-      mesh.node_radius(node) =
-          std::max(mesh.node_radius(node), node_radius_of(model.sections[el.section], length));
+    const Section& section = model.sections[el.section];
+    for (int node : el.nodes) {
+      mesh.node_radius(node) = std::max(mesh.node_radius(node), node_radius_of(section, length));
+      mesh.node_sections[node] = drawn_section(section, length);
+    }
   }
+  // Where a surface contact holds an element, its surface is what the contact sees.
+  for (const Surface& surface : model.surfaces)
+    for (int e : surface.elements)
+      for (int node : model.elements[e].nodes)
+        mesh.node_sections[node] = {surface.a, surface.b, surface.exponent};
+  mesh.reference_triads = sim.reference_triads();
+  for (const Spline& spline : model.splines)
+    mesh.contact_tubes.push_back({spline.nodes, spline.radius});
   if (sim.contact() && options.progress)
     fmt::print(stderr, "{}", initial_clearance_line(sim));
   const output::RunMetadata meta{options.deck_text, options.deck_path, kVersion, options.threads};

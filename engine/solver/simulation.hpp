@@ -161,6 +161,9 @@ public:
   Eigen::Vector3d angular_momentum() const;
   /// Lumped nodal mass (kg) and material rotary inertia (kg m^2).
   const Eigen::VectorXd& nodal_mass() const { return mass_; }
+  /// Reference nodal triads Q0 (columns: section axes 1, 2 and the beam axis); a node's current
+  /// triad is exp(theta) Q0, theta its total rotation vector.
+  const std::vector<Eigen::Matrix3d>& reference_triads() const { return Q0_; }
   /// All energies of the last converged increment.
   EnergyBalance energy_balance() const;
   /// Stable step of explicit step `step` at the current state, with the mass scaling it asks

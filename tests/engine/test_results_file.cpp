@@ -4,10 +4,12 @@
 #include "engine/output/csv_writer.hpp"
 #include "engine/output/results_file.hpp"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
 #include <array>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -154,6 +156,19 @@ Mesh test_mesh() {
     mesh.reference_positions.col(i) << 0.001 * i, 0.0, 0.0002 * i;
   mesh.elements = {{0, 1, 2}, {2, 3, 4}};
   mesh.node_radius = Eigen::VectorXd::LinSpaced(kNodes, 1e-4, 2e-4);
+  return mesh;
+}
+
+/// test_mesh with what the drawing meshes need: an elliptical section at every node (node 4's
+/// super-elliptical), turned reference triads, and one contact tube over all five nodes.
+Mesh drawn_mesh() {
+  Mesh mesh = test_mesh();
+  for (int i = 0; i < kNodes; ++i) {
+    mesh.node_sections.push_back({2e-4, 1e-4, i == 4 ? 4.0 : 2.0});
+    mesh.reference_triads.push_back(
+        Eigen::AngleAxisd(0.3 * i, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix());
+  }
+  mesh.contact_tubes.push_back({{0, 1, 2, 3, 4}, 1.5e-4});
   return mesh;
 }
 
@@ -453,7 +468,7 @@ TEST_F(ResultsOutput, ParaViewOpensTheResultsWhileTheRunWrites) {
       FAIL() << "pvpython not installed (python3-paraview), and YARNSIM_REQUIRE_TEST_TOOLS is set";
     GTEST_SKIP() << "pvpython not installed";
   }
-  ResultsFile results(dir, test_mesh(), test_metadata(), std::chrono::milliseconds(0));
+  ResultsFile results(dir, drawn_mesh(), test_metadata(), std::chrono::milliseconds(0));
   results.write_step(test_step(0));
   results.write_step(test_step(2));
   const auto check = [&](const fs::path& xdmf, const std::string& label) {
@@ -481,6 +496,15 @@ TEST_F(ResultsOutput, ParaViewOpensTheResultsWhileTheRunWrites) {
   std::ofstream(dir / "cut.xdmf") << text.substr(0, text.size() / 2);
   const auto [cut_status, cut_out] = check(dir / "cut.xdmf", "cut");
   EXPECT_EQ(cut_status, 1) << cut_out;
+  // Yarn surfaces declared whose points cannot be read: the centre lines alone do not pass.
+  std::string no_surface = text;
+  for (std::size_t at = no_surface.find("/surface/points"); at != std::string::npos;
+       at = no_surface.find("/surface/points", at))
+    no_surface.replace(at, 15, "/surface/nothng");
+  std::ofstream(dir / "no_surface.xdmf") << no_surface;
+  const auto [surface_status, surface_out] = check(dir / "no_surface.xdmf", "no_surface");
+  EXPECT_EQ(surface_status, 1) << surface_out;
+  EXPECT_NE(surface_out.find("declares 'surfaces'"), std::string::npos) << surface_out;
 }
 #endif
 
@@ -526,6 +550,116 @@ TEST_F(ResultsOutput, ContinuedFileKeepsTheCheckpointsStepsAndGoesOnAsAStraightR
   EXPECT_EQ(read_string_attribute(b, "status"), "completed");
   H5Fclose(a);
   H5Fclose(b);
+}
+
+TEST_F(ResultsOutput, SurfacesAndContactTubesAreWrittenPerStepAndListedInTheXdmf) {
+  const Mesh mesh = drawn_mesh();
+  {
+    ResultsFile results(dir, mesh, test_metadata(), std::chrono::milliseconds(0));
+    for (int k = 0; k < 2; ++k)
+      results.write_step(test_step(k));
+    results.close("completed", "2 steps");
+  }
+  const hid_t file = open_read_only(dir / "results.h5");
+  ASSERT_GE(file, 0);
+  constexpr int kRing = yarnsim::output::kRingPoints;
+  // 2 segments per element, a quad per ring point between consecutive rings.
+  const Array quads = read_array(file, "/mesh/surface_quads");
+  ASSERT_EQ(quads.dims, (std::vector<hsize_t>{2 * kElements * kRing, 4}));
+  // The first quad joins ring point 0 and 1 of node 0 to those of node 1.
+  EXPECT_EQ(quads.values[0], 0);
+  EXPECT_EQ(quads.values[1], 1);
+  EXPECT_EQ(quads.values[2], kRing + 1);
+  EXPECT_EQ(quads.values[3], kRing);
+  const int circles = 3 * yarnsim::output::kTubeSamplesPerSegment + 1; // 5 nodes: 3 segments
+  const Array tube_quads = read_array(file, "/mesh/contact_tube_quads");
+  ASSERT_EQ(tube_quads.dims,
+            (std::vector<hsize_t>{hsize_t((circles - 1) * yarnsim::output::kTubePoints), 4}));
+  for (int k = 0; k < 2; ++k) {
+    const std::string step = "/steps/00000" + std::to_string(k);
+    const StepResults expected = test_step(k);
+    const Array points = read_array(file, step + "/surface/points");
+    ASSERT_EQ(points.dims, (std::vector<hsize_t>{kRing * kNodes, 3}));
+    // Every ring point on its node's section, placed by the node's current triad.
+    for (int i = 0; i < kNodes; ++i) {
+      const Eigen::Matrix3d Q = Eigen::AngleAxisd(expected.rotations.col(i).norm(),
+                                                  expected.rotations.col(i).normalized())
+                                    .toRotationMatrix() *
+                                mesh.reference_triads[i];
+      const auto& section = mesh.node_sections[i];
+      for (int r = 0; r < kRing; ++r) {
+        const Eigen::Vector3d p(points.values.data() + 3 * (kRing * i + r));
+        const Eigen::Vector3d y = Q.transpose() * (p - expected.positions.col(i));
+        EXPECT_NEAR(y.z(), 0.0, 1e-9) << "node " << i << ", ring point " << r;
+        EXPECT_NEAR(std::pow(std::abs(y.x() / section.a), section.exponent) +
+                        std::pow(std::abs(y.y() / section.b), section.exponent),
+                    1.0, 1e-5)
+            << "node " << i << ", ring point " << r;
+      }
+      // Ring point 0 lies on section axis 1 at the semi-axis a.
+      const Eigen::Vector3d p0(points.values.data() + 3 * kRing * i);
+      EXPECT_LT((p0 - expected.positions.col(i) - section.a * Q.col(0)).norm(), 1e-9);
+    }
+    const Array tube = read_array(file, step + "/contact_tube/points");
+    ASSERT_EQ(tube.dims,
+              (std::vector<hsize_t>{hsize_t(circles * yarnsim::output::kTubePoints), 3}));
+    // The nodes lie on a straight line, so is the spline: every tube point at the radius from it.
+    const Eigen::Vector3d start = expected.positions.col(0);
+    const Eigen::Vector3d axis = (expected.positions.col(kNodes - 1) - start).normalized();
+    for (std::size_t j = 0; j < tube.values.size() / 3; ++j) {
+      const Eigen::Vector3d d = Eigen::Vector3d(tube.values.data() + 3 * j) - start;
+      EXPECT_NEAR((d - d.dot(axis) * axis).norm(), 1.5e-4, 1e-9) << "tube point " << j;
+    }
+  }
+  H5Fclose(file);
+
+  const std::string xml = read_text(dir / "results.xdmf");
+  EXPECT_EQ(xml_nesting_error(xml), "");
+  EXPECT_EQ(count(xml, "CollectionType=\"Temporal\""), 4u);
+  EXPECT_EQ(count(xml, "<Grid Name=\"surfaces\" GridType=\"Uniform\""), 2u);
+  EXPECT_EQ(count(xml, "<Grid Name=\"contact_tubes\" GridType=\"Uniform\""), 2u);
+  EXPECT_NE(xml.find("TopologyType=\"Quadrilateral\" NumberOfElements=\"48\""), std::string::npos);
+  EXPECT_NE(xml.find("Dimensions=\"60 3\" NumberType=\"Float\" Precision=\"4\" "
+                     "Format=\"HDF\">results.h5:/steps/000001/surface/points"),
+            std::string::npos);
+}
+
+TEST_F(ResultsOutput, DrawingMeshesThatDoNotMatchTheNodesAreRejected) {
+  Mesh mesh = drawn_mesh();
+  mesh.node_sections.pop_back();
+  EXPECT_THROW(ResultsFile(dir, mesh, test_metadata()), std::invalid_argument);
+  mesh = drawn_mesh();
+  mesh.node_sections[1].exponent = 0;
+  EXPECT_THROW(ResultsFile(dir, mesh, test_metadata()), std::invalid_argument);
+  mesh = drawn_mesh();
+  mesh.contact_tubes[0].nodes = {0, 1};
+  EXPECT_THROW(ResultsFile(dir, mesh, test_metadata()), std::invalid_argument);
+  mesh = drawn_mesh();
+  mesh.contact_tubes[0].nodes.push_back(kNodes);
+  EXPECT_THROW(ResultsFile(dir, mesh, test_metadata()), std::invalid_argument);
+}
+
+TEST_F(ResultsOutput, ContinuedFileWithSurfacesMatchesTheStraightRun) {
+  const fs::path straight = dir / "straight";
+  {
+    ResultsFile results(straight, drawn_mesh(), test_metadata(), std::chrono::milliseconds(0));
+    for (int k = 0; k < 3; ++k)
+      results.write_step(test_step(k));
+    results.close("completed", "3 steps");
+  }
+  const fs::path continued = dir / "continued";
+  {
+    ResultsFile results(continued, drawn_mesh(), test_metadata(), std::chrono::milliseconds(0));
+    results.write_step(test_step(0));
+  }
+  {
+    ResultsFile results(continued, drawn_mesh(), test_metadata(), ResultsFile::Continue{1},
+                        std::chrono::milliseconds(0));
+    for (int k = 1; k < 3; ++k)
+      results.write_step(test_step(k));
+    results.close("completed", "3 steps");
+  }
+  EXPECT_EQ(read_text(continued / "results.xdmf"), read_text(straight / "results.xdmf"));
 }
 
 TEST_F(ResultsOutput, ContinuingAFileWithFewerStepsOrAnotherMeshIsRefused) {
