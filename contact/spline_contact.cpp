@@ -463,11 +463,49 @@ ProjectionResult closest_point_projection(const Matrix3d& control_A, const Segme
 
 namespace {
 
+/// dxi/dx = -H^-1 D and df/dx of a regular point contact (SplineContactSensitivity), from the
+/// quantities of fill_contact: the positions' weights w, grad psi = d|g|/dx, the 18 velocities,
+/// |g|, the law's f_p and f_pdot and dv/dx (`vpd`). Repeats the few lines of the tangent it
+/// needs rather than sharing them, so that the contact's own results are computed exactly as
+/// without it.
+void write_sensitivity(const Local& e, const SegmentBasis& basis_A, const SegmentBasis& basis_B,
+                       const Vec6& w, const Vec18& grad_psi, const Vec18& velocity, double dist,
+                       double fp, double fv, double vpd, SplineContactSensitivity& out) {
+  Vec6 wa;
+  wa << e.dna, Vector3d::Zero();
+  Vec6 wb;
+  wb << Vector3d::Zero(), -e.dnb;
+  const Vec18 da = kron(wa, e.g) + kron(w, e.ga);
+  const Vec18 db = kron(wb, e.g) + kron(w, e.gb);
+  const double det = e.h(0, 0) * e.h(1, 1) - e.h(0, 1) * e.h(0, 1);
+  const Vec18 ha = (e.h(1, 1) * da - e.h(0, 1) * db) / det; // H^-1 D, row by row (local u)
+  const Vec18 hb = (e.h(0, 0) * db - e.h(0, 1) * da) / det;
+  out.parameters.row(0) = -basis_A.length() * ha.transpose(); // dxi = h du
+  out.parameters.row(1) = -basis_B.length() * hb.transpose();
+  out.force = -fp * grad_psi;
+  if (fv != 0.0) {
+    // d(dp/dt)/dx = -(hess psi v + dv/dx grad psi), hess psi as in fill_contact.
+    Vector3d wv = Vector3d::Zero();
+    for (int k = 0; k < 6; ++k) {
+      wv += w(k) * velocity.segment<3>(3 * k);
+    }
+    const Vec18 hess_psi_v = (kron(w, wv) - ha * da.dot(velocity) - hb * db.dot(velocity) -
+                              grad_psi * grad_psi.dot(velocity)) /
+                             dist;
+    out.force -= fv * (hess_psi_v + vpd * grad_psi);
+  }
+  out.valid = true;
+}
+
 /// The body of spline_contact; returns whether it wrote the tangent.
 bool fill_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double radius_A,
                   const Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
                   const ProjectionStart& start, const InterfaceLaw& law, SplineContactResult& out,
-                  const SplineContactOptions& options, const PairRates* rates) {
+                  const SplineContactOptions& options, const PairRates* rates,
+                  SplineContactSensitivity* sensitivity) {
+  if (sensitivity != nullptr) {
+    sensitivity->valid = false;
+  }
   const LocalProjection lp = project(control_A, basis_A, control_B, basis_B, start, options);
   out.status = lp.result.status;
   out.degenerate = lp.result.degenerate;
@@ -528,6 +566,11 @@ bool fill_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
   out.potential = law.potential(p);
   out.active = true;
   out.residual = -out.force * grad_psi;
+  if (sensitivity != nullptr && !out.degenerate) {
+    write_sensitivity(e, basis_A, basis_B, w, grad_psi, velocity, dist, law.stiffness(p, pdot),
+                      rates != nullptr ? law.damping(p, pdot) : 0.0,
+                      rates != nullptr ? rates->velocity_per_displacement : 0.0, *sensitivity);
+  }
   if (!options.compute_tangent) {
     return false;
   }
@@ -609,9 +652,10 @@ bool fill_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
 void spline_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double radius_A,
                     const Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
                     const ProjectionStart& start, const InterfaceLaw& law, SplineContactResult& out,
-                    const SplineContactOptions& options, const PairRates* rates) {
+                    const SplineContactOptions& options, const PairRates* rates,
+                    SplineContactSensitivity* sensitivity) {
   if (!fill_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
-                    options, rates) &&
+                    options, rates, sensitivity) &&
       options.zero_unused_tangent)
     out.tangent.setZero();
 }
@@ -620,10 +664,11 @@ SplineContactResult spline_contact(const Matrix3d& control_A, const SegmentBasis
                                    double radius_A, const Matrix3d& control_B,
                                    const SegmentBasis& basis_B, double radius_B,
                                    const ProjectionStart& start, const InterfaceLaw& law,
-                                   const SplineContactOptions& options, const PairRates* rates) {
+                                   const SplineContactOptions& options, const PairRates* rates,
+                                   SplineContactSensitivity* sensitivity) {
   SplineContactResult out;
   spline_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
-                 options, rates);
+                 options, rates, sensitivity);
   return out;
 }
 

@@ -110,6 +110,20 @@ struct SplineContactResult {
   Eigen::Matrix<double, 18, 18> tangent = Eigen::Matrix<double, 18, 18>::Zero();
 };
 
+/// First derivatives of a regular point contact's state with respect to the 18 positions (A's
+/// control points, then B's, each x, y, z), for the kernels that build on the normal contact
+/// (Coulomb friction, friction.hpp). spline_contact writes them only when handed this struct.
+struct SplineContactSensitivity {
+  /// Whether the fields below belong to the last evaluation: true only for an active pair on
+  /// the regular (not degenerate) path. When false the fields are left as they were.
+  bool valid = false;
+  /// d(xi_A, xi_B)/dx = -H^-1 D (formulation.md §4, in global parameters), 1/m, 2 x 18.
+  Eigen::Matrix<double, 2, 18> parameters = Eigen::Matrix<double, 2, 18>::Zero();
+  /// Gradient of the normal force magnitude, df/dx = -f_p d|g|/dx + f_pdot d(dp/dt)/dx, N/m;
+  /// the second term only with PairRates and a damping law.
+  Eigen::Matrix<double, 18, 1> force = Eigen::Matrix<double, 18, 1>::Zero();
+};
+
 /// Solves the LCP (eq. 11) between segment `basis_A` of curve A (control points `control_A`,
 /// columns, metres) and segment `basis_B` of curve B: r = [C_A'.g, -C_B'.g] = 0, g = C_A - C_B,
 /// taken as a local minimum of |g|^2 / 2 by Newton's method: where the Hessian is not positive
@@ -149,11 +163,14 @@ ProjectionResult closest_point_projection(const Eigen::Matrix3d& control_A,
 /// f' G^T n n^T G - f (G^T (I - n n^T) G - D^T H^-1 D) / |g|, H = dr/dc, D = dr/dx: the second
 /// term is the dependence of the projection on the positions, dc/dx = -H^-1 D. On the
 /// degenerate path the residual and tangent also carry the derivatives of the overlap midpoint.
-/// `rates` (optional) feeds normal damping. Writes into `out`; never allocates.
+/// `rates` (optional) feeds normal damping. `sensitivity` (optional) receives dxi/dx and df/dx
+/// (with or without `options.compute_tangent`); it does not change `out`. Writes into `out`;
+/// never allocates.
 void spline_contact(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A, double radius_A,
                     const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
                     const ProjectionStart& start, const InterfaceLaw& law, SplineContactResult& out,
-                    const SplineContactOptions& options = {}, const PairRates* rates = nullptr);
+                    const SplineContactOptions& options = {}, const PairRates* rates = nullptr,
+                    SplineContactSensitivity* sensitivity = nullptr);
 
 /// As above, returning the result.
 SplineContactResult spline_contact(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
@@ -161,7 +178,8 @@ SplineContactResult spline_contact(const Eigen::Matrix3d& control_A, const Segme
                                    const SegmentBasis& basis_B, double radius_B,
                                    const ProjectionStart& start, const InterfaceLaw& law,
                                    const SplineContactOptions& options = {},
-                                   const PairRates* rates = nullptr);
+                                   const PairRates* rates = nullptr,
+                                   SplineContactSensitivity* sensitivity = nullptr);
 
 /// Name of a status, for messages.
 const char* to_string(ProjectionStatus status);

@@ -1,0 +1,186 @@
+#include "contact/friction.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+// Notation as in spline_contact.cpp: the kernel works in each segment's local variable
+// u = (xi - mid) / h; with x the 18 positions [x_A0 x_A1 x_A2 x_B0 x_B1 x_B2],
+//   w = [N_A(u_A); -N_B(u_B)], wa = [N_A'(u_A); 0], wb = [0; -N_B'(u_B)] (u-derivatives),
+//   g_a = sum_k wa_k x_k = C_A,u, g_b = sum_k wb_k x_k = -C_B,u,
+//   g_aa = C_A,uu, g_bb = -C_B,uu (constant on a segment).
+// In local parameters the elastic gap is g_t = Delta_A g_a + Delta_B g_b, Delta = u - u^s:
+// C'(xi) (xi - xi^s) does not depend on the segment's scale h.
+
+namespace yarnsim::contact {
+
+namespace {
+
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Vec18 = Eigen::Matrix<double, 18, 1>;
+using Mat3x18 = Eigen::Matrix<double, 3, 18>;
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+bool finite_non_negative(double v) {
+  return std::isfinite(v) && v >= 0.0;
+}
+
+/// M += kron(c^T, s I3): block column k of M gains s c_k I3.
+void add_identity_blocks(Mat3x18& m, const Vec6& c, double s) {
+  for (int k = 0; k < 6; ++k) {
+    for (int d = 0; d < 3; ++d) {
+      m(d, 3 * k + d) += s * c(k);
+    }
+  }
+}
+
+} // namespace
+
+CoulombFriction::CoulombFriction(double mu_s, double mu_k, double eps_t, double c_t)
+    : mu_s_(mu_s), mu_k_(mu_k), eps_t_(eps_t), c_t_(c_t) {
+  if (!(finite_non_negative(mu_k) && std::isfinite(mu_s) && mu_s >= mu_k && std::isfinite(eps_t) &&
+        eps_t > 0.0 && finite_non_negative(c_t))) {
+    std::ostringstream msg;
+    msg << "CoulombFriction: expected 0 <= mu_k <= mu_s, eps_t > 0 and c_t >= 0, all finite; "
+        << "found mu_s = " << mu_s << ", mu_k = " << mu_k << ", eps_t = " << eps_t
+        << " N/m, c_t = " << c_t << " N s/m";
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
+                     const Matrix3d& control_B, const SegmentBasis& basis_B,
+                     const SplineContactResult& contact,
+                     const SplineContactSensitivity* sensitivity, const FrictionHistory& history,
+                     const CoulombFriction& law, SplineFrictionResult& out,
+                     const FrictionOptions& options, const PairRates* rates) {
+  out.active = false;
+  out.slipping = false;
+  out.mu = 0.0;
+  out.elastic_gap.setZero();
+  out.sliding_velocity.setZero();
+  out.force.setZero();
+  out.slip_function = 0.0;
+  out.slip_increment = 0.0;
+  out.history = history;
+  out.residual.setZero();
+  out.tangent.setZero();
+  const bool regular_point = contact.active && !contact.degenerate && contact.point_evaluated &&
+                             contact.point_share == 1.0 && contact.line_points == 0;
+  if (!regular_point) {
+    return;
+  }
+  if (options.compute_tangent && (sensitivity == nullptr || !sensitivity->valid)) {
+    throw std::invalid_argument(
+        "spline_friction: the tangent needs the normal contact's SplineContactSensitivity "
+        "(pass one to spline_contact); found " +
+        std::string(sensitivity == nullptr ? "none" : "one not valid for this contact"));
+  }
+
+  const double ha = basis_A.length();
+  const double hb = basis_B.length();
+  const double ua = basis_A.local(contact.xi_A);
+  const double ub = basis_B.local(contact.xi_B);
+  // Parameter differences in local units; the anchor may lie in a neighbouring segment.
+  const double delta_a = (contact.xi_A - history.xi_A) / ha;
+  const double delta_b = (contact.xi_B - history.xi_B) / hb;
+  Vec6 w;
+  w << basis_A.values_local(ua), -basis_B.values_local(ub);
+  Vec6 wa;
+  wa << basis_A.first_local(ua), Vector3d::Zero();
+  Vec6 wb;
+  wb << Vector3d::Zero(), -basis_B.first_local(ub);
+  const Vector3d g_a = control_A * wa.head<3>();
+  const Vector3d g_b = control_B * wb.tail<3>();
+  const Vector3d g_t = delta_a * g_a + delta_b * g_b;
+  const Vector3d& n = contact.normal;
+  const double f_n = contact.force;
+
+  // Stick predictor, slip corrector (Simo & Laursen 1992).
+  const double eps_t = law.eps_t();
+  const double mu = history.stuck ? law.mu_s() : law.mu_k();
+  const double gap_norm = g_t.norm();
+  const double phi = eps_t * gap_norm - mu * f_n;
+  out.active = true;
+  out.mu = mu;
+  out.elastic_gap = g_t;
+  out.slip_function = phi;
+  out.history.stuck = !(phi > 0.0);
+  Vector3d f_c = eps_t * g_t;
+  Vector3d t = Vector3d::Zero();
+  if (phi > 0.0) {
+    // |g_t| > mu f_n / eps_t >= 0 here.
+    out.slipping = true;
+    t = g_t / gap_norm;
+    f_c = (mu * f_n) * t;
+    const double scale = mu * f_n / (eps_t * gap_norm); // in [0, 1)
+    out.history.xi_A = contact.xi_A - (contact.xi_A - history.xi_A) * scale;
+    out.history.xi_B = contact.xi_B - (contact.xi_B - history.xi_B) * scale;
+    out.slip_increment = gap_norm - mu * f_n / eps_t;
+  }
+
+  // Tangential damping on the relative velocity of the contact points at fixed parameters.
+  const bool damped = rates != nullptr && law.c_t() > 0.0;
+  Vector3d v_rel = Vector3d::Zero();
+  if (damped) {
+    v_rel = rates->velocity_A * w.head<3>() + rates->velocity_B * w.tail<3>();
+    out.sliding_velocity = v_rel - n * n.dot(v_rel);
+  }
+  out.force = f_c + law.c_t() * out.sliding_velocity;
+  for (int k = 0; k < 6; ++k) {
+    out.residual.segment<3>(3 * k) = -w(k) * out.force;
+  }
+  if (!options.compute_tangent) {
+    return;
+  }
+
+  // Derivatives of the local parameters: du/dx = dxi/dx / h.
+  const Vec18 du_a = sensitivity->parameters.row(0).transpose() / ha;
+  const Vec18 du_b = sensitivity->parameters.row(1).transpose() / hb;
+  const Vector3d g_aa = control_A * basis_A.second_local();
+  const Vector3d g_bb = -(control_B * basis_B.second_local());
+
+  // dg_t/dx, 3 x 18.
+  Mat3x18 dgt = Mat3x18::Zero();
+  add_identity_blocks(dgt, wa, delta_a);
+  add_identity_blocks(dgt, wb, delta_b);
+  dgt.noalias() += (g_a + delta_a * g_aa) * du_a.transpose();
+  dgt.noalias() += (g_b + delta_b * g_bb) * du_b.transpose();
+
+  // df/dx, 3 x 18.
+  Mat3x18 df;
+  if (out.slipping) {
+    const double c = mu * f_n / gap_norm;
+    df.noalias() = (mu * t) * sensitivity->force.transpose();
+    df.noalias() += c * dgt;
+    df.noalias() -= (c * t) * (t.transpose() * dgt);
+  } else {
+    df.noalias() = eps_t * dgt;
+  }
+  if (damped) {
+    // v_rel = sum_k w_k v_k with dv_k/dx_k = vpd I3; v_t = P v_rel, P = I - n n^T;
+    // dn/dx = P dg/dx / |g|, dg/dx = G + g_a du_a^T + g_b du_b^T (total, G = kron(w^T, I3)).
+    const double vpd = rates->velocity_per_displacement;
+    Vector3d va = rates->velocity_A * wa.head<3>();
+    Vector3d vb = rates->velocity_B * wb.tail<3>();
+    Mat3x18 dv = va * du_a.transpose() + vb * du_b.transpose();
+    add_identity_blocks(dv, w, vpd);
+    Mat3x18 dg = g_a * du_a.transpose() + g_b * du_b.transpose();
+    add_identity_blocks(dg, w, 1.0);
+    const Mat3x18 dn = (dg - n * (n.transpose() * dg)) / contact.distance;
+    const double vn = n.dot(v_rel);
+    const Mat3x18 dvt = dv - n * (n.transpose() * dv) - n * (v_rel.transpose() * dn) - vn * dn;
+    df.noalias() += law.c_t() * dvt;
+  }
+
+  // residual = -kron(w, f): tangent = -kron(wa, f) du_a^T - kron(wb, f) du_b^T - kron(w, df).
+  for (int k = 0; k < 6; ++k) {
+    out.tangent.block<3, 18>(3 * k, 0).noalias() =
+        -(wa(k) * out.force) * du_a.transpose() - (wb(k) * out.force) * du_b.transpose();
+    out.tangent.block<3, 18>(3 * k, 0).noalias() -= w(k) * df;
+  }
+}
+
+} // namespace yarnsim::contact

@@ -1,0 +1,157 @@
+#pragma once
+// Pointwise Coulomb friction of beam-to-beam spline contact (formulation.md §5): the kernel of
+// one contact point, apart from the normal contact (spline_contact.hpp) whose state it takes.
+//
+// Model: penalty-regularised (elastic-plastic) Coulomb friction of a point contact between two
+// beams: a tangential penalty, a stick predictor and a slip corrector, with the tangential
+// relative displacement measured through the convective coordinates of the contact points
+// (Wriggers & Zavarise 1997, "On contact between three-dimensional beams undergoing large
+// deflections"); the gap measured from the material points where the contact stuck, and static
+// and dynamic coefficients (Gay Neto, Pimenta & Wriggers 2016, "A master-surface to
+// master-surface formulation for beam to beam contact. Part II: Frictional interaction"). The
+// slip corrector is the radial return of Simo & Laursen 1992 ("An augmented Lagrangian treatment
+// of contact problems involving friction", penalty form), with its consistent linearisation.
+// The formulas below are this file's own derivation in the spline kernel's notation; no
+// equation is taken over by number.
+//
+// History ("anchor"): the global parameters (xi_A^s, xi_B^s) of the material points of the two
+// centre lines where the point stuck, and whether the point stuck in the last committed state.
+// Global parameters are material coordinates of the centre lines, so the anchor moves with the
+// yarns, and it may lie in another segment than the current contact point (no hand-over at a
+// knot: the curves are C1 and only the parameter differences enter).
+//
+// Elastic tangential gap (trial), with the current tangents at the current projection:
+//   g_t = C_A'(xi_A) (xi_A - xi_A^s) - C_B'(xi_B) (xi_B - xi_B^s)                      [m]
+// the first-order relative displacement of the anchor's material points with respect to the
+// contact points (A minus B). At a converged projection C_A'.g = C_B'.g = 0, so g_t is
+// orthogonal to n. It is objective: a rigid motion of a stuck pair leaves the parameters alone
+// and rotates the tangents, so it rotates g_t and leaves |g_t| and the force's magnitude
+// unchanged. It is linear in the parameter differences, so the return mapping is exact: scaling
+// both differences by one factor scales g_t by it. After a converged step the anchor is never
+// farther than the cone's radius mu f_n / eps_t (metres along the tangents) from the contact
+// point, so the linearisation of C(xi) - C(xi^s) is accurate.
+//
+// Law (Simo & Laursen 1992, penalty form): f_tr = eps_t g_t, phi = |f_tr| - mu f_n, with
+// mu = mu_s if the point stuck in the last committed state, else mu_k.
+//   stick (phi <= 0): f_c = f_tr, the anchor is kept;
+//   slip  (phi > 0):  f_c = mu f_n g_t / |g_t|, the anchor is pulled onto the cone,
+//                     xi^s <- xi - (xi - xi^s) mu f_n / (eps_t |g_t|) on both curves, and the
+//                     slip increment is |g_t| - mu f_n / eps_t.
+// The coefficient is chosen from the committed state, not switched within a step, so the force
+// is a continuous function of the positions during a Newton solve: the step in which a stuck
+// point breaks loose carries mu_s f_n, and the following steps (history committed as slipping)
+// carry mu_k f_n. The static-to-kinetic drop thus lags one step.
+//
+// Tangential damping (optional, c_t >= 0): a dashpot in parallel with the Coulomb element on the
+// relative tangential velocity of the contact points, v_t = (I - n n^T) (v_A(xi_A) - v_B(xi_B))
+// at fixed parameters; f = f_c + c_t v_t. It is not limited by the cone (like the normal law's
+// damping, which adds to f_n), so the force stays continuous through stick-slip switches; it
+// enters the tangent through PairRates::velocity_per_displacement as the normal damping does.
+//
+// Force and sign: f acts on A at its contact point and -f on B at its. Dragging A along +x over
+// B moves A's anchor point ahead (+x) of the contact point: g_t points -x and so does the force
+// on A, which opposes the sliding of A relative to B. The residual (contribution to the
+// internal forces, as in spline_contact) is -N_A,k(xi_A) f at A's control point k and
+// +N_B,k(xi_B) f at B's: residual = -kron(w, f), w = [N_A; -N_B].
+//
+// Limitations. The spline carries translations only, so the moments (r_A + r_B) n x f that
+// carry the force from the yarns' surfaces to their centre lines are dropped: the point forces
+// +f at C_A and -f at C_B balance in force but leave the couple g x f (|g| ~ r_A + r_B). The
+// kernel evaluates friction only for a regular point projection: on the degenerate
+// (near-parallel) path and for line contact (line_contact.hpp) it reports no friction
+// (`active` false); those are left for later.
+
+#include "contact/spline_contact.hpp"
+#include "contact/spline_curve.hpp"
+
+#include <Eigen/Core>
+
+namespace yarnsim::contact {
+
+/// Coefficients of the penalty-regularised Coulomb law.
+class CoulombFriction {
+public:
+  /// mu_s, mu_k: static and kinetic coefficients (dimensionless); eps_t: tangential penalty,
+  /// N/m; c_t: tangential damping, N s/m. Throws std::invalid_argument unless
+  /// 0 <= mu_k <= mu_s, eps_t > 0 and c_t >= 0, all finite.
+  CoulombFriction(double mu_s, double mu_k, double eps_t, double c_t = 0.0);
+
+  double mu_s() const { return mu_s_; }
+  double mu_k() const { return mu_k_; }
+  double eps_t() const { return eps_t_; }
+  double c_t() const { return c_t_; }
+
+private:
+  double mu_s_;
+  double mu_k_;
+  double eps_t_;
+  double c_t_;
+};
+
+/// History of one contact point: the anchor and the stick flag of the last committed state.
+struct FrictionHistory {
+  double xi_A = 0.0; ///< global parameter on curve A of the material point where it stuck
+  double xi_B = 0.0; ///< the same on curve B
+  bool stuck = true; ///< stuck in the last committed state: mu_s applies, else mu_k
+};
+
+/// The history of a contact point that has just closed: anchored where it touched, stuck.
+inline FrictionHistory first_touch(const SplineContactResult& contact) {
+  return {contact.xi_A, contact.xi_B, true};
+}
+
+/// Controls of the friction kernel.
+struct FrictionOptions {
+  bool compute_tangent = true; ///< false: residual only (explicit dynamics); tangent zeroed
+};
+
+/// Friction state, residual and tangent of one contact point. The 18 DOFs are those of
+/// SplineContactResult (A's three control points, then B's, each x, y, z).
+struct SplineFrictionResult {
+  /// Evaluated: the normal contact is active on a regular point projection. Otherwise every
+  /// field below is zero, and `history` is the input's.
+  bool active = false;
+  bool slipping = false; ///< the trial force left the cone (phi > 0)
+  double mu = 0.0;       ///< the coefficient used, mu_s or mu_k
+  Eigen::Vector3d elastic_gap = Eigen::Vector3d::Zero(); ///< trial g_t, metres
+  /// v_t, m/s; zero without PairRates or damping.
+  Eigen::Vector3d sliding_velocity = Eigen::Vector3d::Zero();
+  /// Friction force on A at its contact point (on B: the opposite), N: f_c + c_t v_t.
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  double slip_function = 0.0;  ///< trial phi = eps_t |g_t| - mu f_n, N
+  double slip_increment = 0.0; ///< |g_t| - mu f_n / eps_t when slipping, else 0, metres
+  /// The history to commit if this iterate is accepted: the anchor (kept in stick, returned
+  /// onto the cone in slip) and stuck = !slipping.
+  FrictionHistory history;
+  /// Contribution to the internal force vector, N: -kron(w, f), see the file's comment.
+  Eigen::Matrix<double, 18, 1> residual = Eigen::Matrix<double, 18, 1>::Zero();
+  /// d(residual)/dx at fixed history, N/m, including the dependence of (xi_A, xi_B), of the
+  /// tangents C'(xi), of f_n (slip) and of the normal and velocities (damping) on x. Not
+  /// symmetric: a model with friction needs an LU factorisation of the global tangent.
+  Eigen::Matrix<double, 18, 18> tangent = Eigen::Matrix<double, 18, 18>::Zero();
+};
+
+/// Coulomb friction of one contact point of the segment pair (`control_A`, `basis_A`),
+/// (`control_B`, `basis_B`) (control points as columns, metres), whose normal contact is
+/// `contact`: the result of spline_contact for the same positions (and the same `rates`, if the
+/// normal law damps). `sensitivity` is the SplineContactSensitivity spline_contact wrote for it;
+/// it is needed only for the tangent (nullptr with `options.compute_tangent` false).
+/// `history` is held fixed: the caller commits `out.history` with a converged increment.
+/// `rates` (optional) feeds the tangential damping.
+///
+/// With `d = dxi/dx` (local u) from the projection and G_a = kron(N_A'^T, I3) (likewise G_b):
+///   dg_t/dx = Delta_A G_a + Delta_B G_b + (C_A,u + Delta_A C_A,uu) du_A/dx
+///             + (-C_B,u - Delta_B C_B,uu) du_B/dx,   Delta = u - u^s (local parameters),
+///   stick: df/dx = eps_t dg_t/dx,
+///   slip:  df/dx = mu t (df_n/dx)^T + mu f_n / |g_t| (I - t t^T) dg_t/dx,   t = g_t / |g_t|,
+///   tangent = -kron(w', f) du/dx - kron(w, I3) df/dx   (w' = dw/du_A, dw/du_B).
+/// Throws std::invalid_argument if the tangent is asked for and `sensitivity` is null or not
+/// valid for an active regular contact. Writes into `out`; never allocates.
+void spline_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
+                     const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B,
+                     const SplineContactResult& contact,
+                     const SplineContactSensitivity* sensitivity, const FrictionHistory& history,
+                     const CoulombFriction& law, SplineFrictionResult& out,
+                     const FrictionOptions& options = {}, const PairRates* rates = nullptr);
+
+} // namespace yarnsim::contact
