@@ -328,7 +328,9 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
                        const Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
                        const ProjectionStart& start, const InterfaceLaw& law,
                        const AllAngleOptions& all_angle, SplineContactResult& out,
-                       const SplineContactOptions& options) {
+                       const SplineContactOptions& options, SplineContactSensitivity* sensitivity) {
+  if (sensitivity)
+    sensitivity->valid = false;
   const Vector3d chord_a = control_A * (basis_A.values_local(0.5) - basis_A.values_local(-0.5));
   const Vector3d chord_b = control_B * (basis_B.values_local(0.5) - basis_B.values_local(-0.5));
   const double chord_sine2 = sine2_of(chord_a, chord_b);
@@ -340,7 +342,7 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
   bool tangent_written = false;
   if (out.point_evaluated) {
     spline_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
-                   options);
+                   options, nullptr, sensitivity);
     tangent_written = out.active && options.compute_tangent;
     // Between half the line angle and the line angle the point contact is ill-conditioned and
     // would carry no share: a failed projection there is not the step's fault.
@@ -368,6 +370,9 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
     const double sine2 =
         sine2_of(control_A * basis_A.first_local(ua), control_B * basis_B.first_local(ub));
     out.point_share = point_share(sine2, all_angle);
+    // The sensitivity describes the point contact alone: not a blended or a line contact.
+    if (sensitivity && out.point_share < 1.0)
+      sensitivity->valid = false;
     if (out.point_share == 0.0) {
       // No share: a jump of this point moves no force.
       if (out.status == ProjectionStatus::Jumped)
@@ -408,6 +413,8 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
   line_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, law, all_angle, line,
                options);
   out.line_points = line.points;
+  if (sensitivity && line.points > 0)
+    sensitivity->valid = false;
   // A Gauss point without a projection (or a normal) is a hole in the line contact: as for the
   // point contact, the stage vetoes the step if the pair is or was in contact.
   if (line.failed > 0)

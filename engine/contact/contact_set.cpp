@@ -86,6 +86,10 @@ ContactSummary ContactStage::summary() const {
     out.max_force = std::max(out.max_force, s.max_force);
     out.potential += s.potential;
     out.total_force += s.total_force;
+    out.stick += s.stick;
+    out.slip += s.slip;
+    out.tangential_force += s.tangential_force;
+    out.dissipation += s.dissipation;
     out.min_gap = std::min(out.min_gap, s.min_gap);
     out.active_set = out.active_set * 0x9e3779b97f4a7c15ull + s.active_set;
   }

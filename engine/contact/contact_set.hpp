@@ -29,6 +29,11 @@ struct ContactPoint {
   Eigen::Vector3d normal;   ///< from B to A
   double gap = 0;           ///< signed gap, m; negative: penetration
   double force = 0;         ///< normal force, N
+  /// Friction (contacts with friction): the tangential force on A (on B the opposite), N; the
+  /// state, 0 frictionless, 1 stick, 2 slip; the slip accumulated since the point closed, m.
+  Eigen::Vector3d tangential_force = Eigen::Vector3d::Zero();
+  int friction = 0;
+  double slip = 0;
   // What the point lies on: the definition and the two segments of its pair (A, B).
   bool surface = false; ///< a surface contact (Model::surface_contacts), else a spline contact
   int definition = -1;  ///< index into Model::spline_contacts or Model::surface_contacts
@@ -43,10 +48,16 @@ struct ContactPoint {
 struct ContactSummary {
   int candidates = 0;
   int active = 0;
-  double max_penetration = 0; ///< m, over active pairs (0 if none)
-  double max_force = 0;       ///< N
-  double potential = 0;       ///< elastic energy stored in the active pairs, J
-  double total_force = 0;     ///< sum of the normal forces of the active pairs, N
+  double max_penetration = 0;  ///< m, over active pairs (0 if none)
+  double max_force = 0;        ///< N
+  double potential = 0;        ///< elastic energy stored in the active pairs, J
+  double total_force = 0;      ///< sum of the normal forces of the active pairs, N
+  int stick = 0;               ///< active points with friction in stick
+  int slip = 0;                ///< active points with friction in slip
+  double tangential_force = 0; ///< sum of the friction forces' magnitudes, N
+  /// Energy dissipated by friction from the start up to this evaluation (the completed
+  /// increments' and this iterate's slips), J.
+  double dissipation = 0;
   /// Smallest signed gap over the pairs whose projection converged in range, m; +infinity when
   /// there is none. Before loading it is the clearance the formulation sees.
   double min_gap = 0;

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -27,6 +28,7 @@ struct SplineContactSet::Definition {
   bool line_contact = true;                  ///< all-angle contact, or point contact alone
   contact::AllAngleOptions all_angle;        ///< line_scale set per pair
   double line_per_point = 0; ///< line_penalty / penalty, 1/m; 0: 1 / (r_A + r_B) per pair
+  std::optional<contact::CoulombFriction> friction; ///< none: frictionless
 };
 
 std::shared_ptr<const contact::InterfaceLaw> make_interface_law(const InterfaceLawParameters& p) {
@@ -79,6 +81,15 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
     d->all_angle.point_sine = std::sin(def.point_angle * degree);
     d->all_angle.gauss_points = def.gauss_points;
     d->line_per_point = def.line_penalty > 0 ? def.line_penalty / def.law.penalty : 0.0;
+    if (def.friction.active()) {
+      try {
+        d->friction.emplace(def.friction.mu_static, def.friction.mu_kinetic,
+                            def.friction.tangential_penalty);
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(fmt::format("contact '{}': {}", def.name, e.what()));
+      }
+      any_friction_ = true;
+    }
     d->boxes.resize(d->spline.size());
     definitions_.push_back(std::move(d));
   }
@@ -130,6 +141,10 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
   options.compute_tangent = want_tangent;
   options.zero_unused_tangent = false; // assemble() reads the tangents of active pairs only
   tangents_computed_ = want_tangent;
+  if (any_friction_) {
+    sensitivity_.resize(work_.size());
+    friction_.resize(work_.size());
+  }
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, work_.size(), 16),
       [&](const tbb::blocked_range<std::size_t>& range) {
@@ -150,17 +165,51 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
           const double ra = d.radius[item.pair.first], rb = d.radius[item.pair.second];
           const auto& sa = ca.segment(d.segment[item.pair.first]);
           const auto& sb = cb.segment(d.segment[item.pair.second]);
+          contact::SplineContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
           if (d.line_contact) {
             // The first segment of a pair is the line contact's slave.
             contact::AllAngleOptions all_angle = d.all_angle;
             all_angle.line_scale = d.line_per_point > 0 ? d.line_per_point : 1.0 / (ra + rb);
             contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle, item.result,
-                                       options);
+                                       options, sensitivity);
           } else {
-            contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options);
+            contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options,
+                                    nullptr, sensitivity);
           }
         }
       });
+
+  if (any_friction_) {
+    // Friction at the active point contacts, on the histories of the last converged increment
+    // (held fixed through the iterations).
+    assign_friction_histories();
+    contact::FrictionOptions friction_options;
+    friction_options.compute_tangent = want_tangent;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, work_.size(), 16),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+          for (std::size_t w = range.begin(); w != range.end(); ++w) {
+            const Work& item = work_[w];
+            const Definition& d = *definitions_[item.definition];
+            contact::SplineFrictionResult& f = friction_[w];
+            f.active = false;
+            if (!d.friction || !item.result.active || !sensitivity_[w].valid)
+              continue;
+            const std::array<int, 6> n = nodes_of(d, item.pair);
+            Eigen::Matrix3d A, B;
+            for (int c = 0; c < 3; ++c) {
+              A.col(c) = x.col(n[c]);
+              B.col(c) = x.col(n[3 + c]);
+            }
+            const auto& sa = curves_[d.spline[item.pair.first]].segment(d.segment[item.pair.first]);
+            const auto& sb =
+                curves_[d.spline[item.pair.second]].segment(d.segment[item.pair.second]);
+            contact::spline_friction(A, sa, B, sb, item.result,
+                                     want_tangent ? &sensitivity_[w] : nullptr, item.history,
+                                     *d.friction, f, friction_options);
+          }
+        });
+  }
 
   summarise();
 
@@ -203,10 +252,86 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
     if (!item.result.active)
       continue;
     const std::array<int, 6> n = nodes_of(*definitions_[item.definition], item.pair);
-    for (int a = 0; a < 6; ++a)
+    const std::size_t w = static_cast<std::size_t>(&item - work_.data());
+    const contact::SplineFrictionResult* f =
+        any_friction_ && friction_[w].active ? &friction_[w] : nullptr;
+    for (int a = 0; a < 6; ++a) {
       residual.segment<3>(6 * n[a]) += item.result.residual.segment<3>(3 * a);
-    if (want_tangent)
-      assembler.add_translation_block(n, item.result.tangent);
+      if (f)
+        residual.segment<3>(6 * n[a]) += f->residual.segment<3>(3 * a);
+    }
+    if (want_tangent) {
+      if (f) {
+        const Eigen::Matrix<double, 18, 18> block = item.result.tangent + f->tangent;
+        assembler.add_translation_block(n, block);
+      } else {
+        assembler.add_translation_block(n, item.result.tangent);
+      }
+    }
+  }
+}
+
+int SplineContactSet::work_index(const Key& key) const {
+  const auto it =
+      std::lower_bound(work_.begin(), work_.end(), key, [](const Work& w, const Key& k) {
+        return Key{w.definition, w.pair.first, w.pair.second} < k;
+      });
+  if (it == work_.end() || Key{it->definition, it->pair.first, it->pair.second} != key)
+    return -1;
+  return static_cast<int>(it - work_.begin());
+}
+
+int SplineContactSet::committed_index(const Key& key) const {
+  const auto it = std::lower_bound(committed_.begin(), committed_.end(), key,
+                                   [](const Snapshot::Warm& w, const Key& k) { return w.key < k; });
+  if (it == committed_.end() || it->key != key)
+    return -1;
+  return static_cast<int>(it - committed_.begin());
+}
+
+void SplineContactSet::assign_friction_histories() {
+  // A point contact keeps its own history while its pair owns it. When it slides over a knot of
+  // either spline, the neighbouring pair (a segment further along one spline or both) takes it
+  // over; the anchor, in global parameters of the two splines, is valid on that pair as well,
+  // so the history goes with it: the committed history of a neighbouring pair that no longer
+  // owns an active point. Each history is handed to one point at most.
+  std::vector<char> taken(committed_.size(), 0);
+  for (std::size_t w = 0; w < work_.size(); ++w) {
+    Work& item = work_[w];
+    const Definition& d = *definitions_[item.definition];
+    if (!d.friction || !item.result.active || !sensitivity_[w].valid)
+      continue;
+    int from = item.warm >= 0 && committed_[item.warm].friction != 0 ? item.warm : -1;
+    if (from < 0) {
+      static constexpr std::array<std::array<int, 2>, 8> kNeighbours{
+          {{-1, 0}, {1, 0}, {0, -1}, {0, 1}, {-1, -1}, {-1, 1}, {1, -1}, {1, 1}}};
+      const int first = item.pair.first, second = item.pair.second;
+      const int segments = static_cast<int>(d.spline.size());
+      for (const auto& [da, db] : kNeighbours) {
+        const int a = first + da, b = second + db;
+        if (a < 0 || b < 0 || a >= segments || b >= segments || d.spline[a] != d.spline[first] ||
+            d.spline[b] != d.spline[second])
+          continue;
+        const Key key{item.definition, a, b};
+        const int c = committed_index(key);
+        if (c < 0 || committed_[c].friction == 0 || taken[c])
+          continue;
+        const int now = work_index(key);
+        if (now >= 0 && work_[now].result.active)
+          continue; // that pair still owns a point of its own
+        from = c;
+        break;
+      }
+    }
+    if (from >= 0) {
+      const Snapshot::Warm& h = committed_[from];
+      item.history = {h.anchor_A, h.anchor_B, h.friction == 1};
+      item.slip = h.slip;
+      taken[from] = 1;
+    } else {
+      item.history = contact::first_touch(item.result);
+      item.slip = 0;
+    }
   }
 }
 
@@ -220,8 +345,18 @@ void SplineContactSet::commit() {
     if (r.status == contact::ProjectionStatus::NotConverged || !r.point_evaluated)
       continue;
     item.warm = static_cast<int>(next_committed_.size());
-    next_committed_.push_back(
-        {Key{item.definition, item.pair.first, item.pair.second}, r.xi_A, r.xi_B, r.active});
+    Snapshot::Warm& warm = next_committed_.emplace_back(Snapshot::Warm{
+        Key{item.definition, item.pair.first, item.pair.second}, r.xi_A, r.xi_B, r.active});
+    const std::size_t w = static_cast<std::size_t>(&item - work_.data());
+    if (any_friction_ && friction_[w].active) {
+      const contact::SplineFrictionResult& f = friction_[w];
+      warm.anchor_A = f.history.xi_A;
+      warm.anchor_B = f.history.xi_B;
+      warm.friction = f.slipping ? 2 : 1;
+      warm.slip = item.slip + f.slip_increment;
+      // The plastic work of the slip: the force on the cone times the slip, mu f_n |dg_s|.
+      dissipated_ += f.mu * r.force * f.slip_increment;
+    }
   }
   std::swap(committed_, next_committed_);
 }
@@ -240,6 +375,13 @@ std::vector<ContactPoint> SplineContactSet::points() const {
     p.definition = w.definition;
     p.body = {d.spline[w.pair.first], d.spline[w.pair.second]};
     p.segment = {d.segment[w.pair.first], d.segment[w.pair.second]};
+    const std::size_t k = static_cast<std::size_t>(&w - work_.data());
+    if (any_friction_ && friction_[k].active) {
+      const contact::SplineFrictionResult& f = friction_[k];
+      p.tangential_force = f.force;
+      p.friction = f.slipping ? 2 : 1;
+      p.slip = w.slip + f.slip_increment;
+    }
   }
   return out;
 }
@@ -257,6 +399,7 @@ SplineContactSet::Snapshot SplineContactSet::snapshot() const {
                          r.penetration_rate, r.force, r.potential, r.point_A, r.point_B, r.normal});
   }
   out.candidates_version = candidates_version_;
+  out.dissipated = dissipated_;
   return out;
 }
 
@@ -309,6 +452,13 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
   committed_ = snapshot.committed;
   link_warm_starts(work_, committed_);
   candidates_version_ = snapshot.candidates_version;
+  dissipated_ = snapshot.dissipated;
+  // The friction results are not saved: the next evaluation computes them (summary without
+  // them until then).
+  if (any_friction_) {
+    sensitivity_.assign(work_.size(), {});
+    friction_.assign(work_.size(), {});
+  }
   summarise();
 }
 
@@ -329,6 +479,20 @@ void SplineContactSet::summarise() {
     summary_.max_force = std::max(summary_.max_force, r.force);
     summary_.potential += r.potential;
     summary_.total_force += r.force;
+  }
+  summary_.dissipation = dissipated_;
+  if (!any_friction_)
+    return;
+  for (std::size_t w = 0; w < friction_.size(); ++w) {
+    const contact::SplineFrictionResult& f = friction_[w];
+    if (!f.active)
+      continue;
+    ++(f.slipping ? summary_.slip : summary_.stick);
+    summary_.tangential_force += f.force.norm();
+    // The tangential spring's elastic energy, |f|^2 / (2 eps_t), is stored with the normal one.
+    summary_.potential +=
+        f.force.squaredNorm() / (2.0 * definitions_[work_[w].definition]->friction->eps_t());
+    summary_.dissipation += f.mu * work_[w].result.force * f.slip_increment;
   }
 }
 

@@ -1,9 +1,12 @@
 #pragma once
 // The beam-to-beam spline contact stage (formulation.md §5): candidate segment pairs of the C1
 // quadratic contact splines from the FCL-backed search, closest-point projections in parallel,
+// Coulomb friction at the active point contacts of definitions that have it (contact/friction.hpp:
+// anchors committed with converged increments, handed over between neighbouring segment pairs),
 // assembly of the active pairs' 18 x 18 translational blocks in sorted order.
 
 #include "broadphase/candidate_search.hpp"
+#include "contact/friction.hpp"
 #include "contact/interface_law.hpp"
 #include "contact/spline_contact.hpp"
 #include "contact/spline_curve.hpp"
@@ -49,6 +52,11 @@ public:
       Key key;
       double xi_A, xi_B;
       bool active;
+      /// Friction history of an active point contact with friction (friction.hpp): the anchor
+      /// (global parameters on the two splines), the slip accumulated since the point closed
+      /// (m), and friction = 1 stuck, 2 slipping, 0 none.
+      double anchor_A = 0, anchor_B = 0, slip = 0;
+      int friction = 0;
     };
     /// A candidate and the scalar part of its last SplineContactResult.
     struct Pair {
@@ -63,6 +71,7 @@ public:
     std::vector<Warm> committed;                                ///< sorted by key
     std::vector<Pair> pairs;                                    ///< the work list, in order
     int candidates_version = 0;
+    double dissipated = 0; ///< J, by friction over the completed increments
   };
   Snapshot snapshot() const;
   /// Puts a snapshot of a set of the same model back. Throws std::invalid_argument when it does
@@ -76,16 +85,33 @@ private:
     broadphase::CandidatePair pair;
     contact::SplineContactResult result;
     int warm = -1; ///< index of its warm start in committed_, or -1 (link_warm_starts)
+    /// Friction of an active point contact: the history this evaluation holds fixed (its own
+    /// committed one, one handed over from a neighbouring pair, or a first touch) and the slip
+    /// accumulated before this increment, m.
+    contact::FrictionHistory history;
+    double slip = 0;
   };
 
   std::array<int, 6> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
   /// summary_ from work_.
   void summarise();
+  /// Gives each active frictional point contact the history it holds fixed (serial: a history
+  /// handed over from a neighbouring pair goes to one point only).
+  void assign_friction_histories();
+  /// Index of the work item / committed entry with this key, or -1.
+  int work_index(const Key& key) const;
+  int committed_index(const Key& key) const;
 
   const Model& model_;
   std::vector<contact::SplineCurve> curves_; ///< per spline
   std::vector<std::unique_ptr<Definition>> definitions_;
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
+  bool any_friction_ = false;
+  /// Per work item, when a definition has friction: the point contact's sensitivity (valid for
+  /// an active point contact alone) and the friction result (active where it was evaluated).
+  std::vector<contact::SplineContactSensitivity> sensitivity_;
+  std::vector<contact::SplineFrictionResult> friction_;
+  double dissipated_ = 0; ///< J, by friction over the committed increments
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;
   /// Warm starts of the last converged increment's candidates, sorted by key.

@@ -156,13 +156,23 @@ struct InterfaceLawParameters {
   double damping = 0;  ///< N s/m
 };
 
+/// Coulomb friction of a contact (contact/friction.hpp): a tangential penalty (elastic stick)
+/// and a return mapping onto the cone |f_t| <= mu f_n, mu_static bounding a point that stuck in
+/// the last increment, mu_kinetic one that slipped. Frictionless when both coefficients are 0.
+struct FrictionParameters {
+  double mu_static = 0;          ///< -
+  double mu_kinetic = 0;         ///< -, <= mu_static
+  double tangential_penalty = 0; ///< N/m, > 0 when there is friction
+  bool active() const { return mu_static > 0 || mu_kinetic > 0; }
+};
+
 /// Spline-to-spline contact between two groups of splines (indices into Model::splines).
 struct SplineContactDefinition {
   std::string name;
   std::vector<int> group_a, group_b;
   InterfaceLawParameters law;
-  bool self_contact = false; ///< pairs within one spline (beyond its neighbours)
-  double margin = 0;         ///< m, broad-phase box inflation beyond the radius; 0: the radius
+  bool self_contact = false;   ///< pairs within one spline (beyond its neighbours)
+  double margin = 0;           ///< m, broad-phase box inflation beyond the radius; 0: the radius
   /// All-angle contact (contact/line_contact.hpp): line contact below line_angle, point contact
   /// above point_angle, blended between; false: point contact at every angle (with its
   /// degenerate near-parallel path).
@@ -173,6 +183,9 @@ struct SplineContactDefinition {
   /// penalty); 0: penalty / (r_A + r_B)
   double line_penalty = 0;
   int gauss_points = 5; ///< per slave segment, 1 to 10
+  /// Coulomb friction, at point contacts (crossing yarns) only: not on the line contact or the
+  /// degenerate path of nearly parallel yarns.
+  FrictionParameters friction;
 };
 
 /// A contact surface for the surface-to-surface contact (formulation.md §6, the paper's eqs. 1-3):
@@ -239,5 +252,13 @@ struct Model {
 Section section_from_shape(std::string name, SectionShape shape, double a, double b,
                            double exponent, const Material& material, double reduce_I1,
                            double reduce_I2, double shear_factor);
+
+/// Whether any contact of the model has friction.
+inline bool has_friction(const Model& model) {
+  for (const SplineContactDefinition& c : model.spline_contacts)
+    if (c.friction.active())
+      return true;
+  return false;
+}
 
 } // namespace yarnsim

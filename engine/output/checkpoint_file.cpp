@@ -89,6 +89,13 @@ void write_contact(hid_t parent, const SplineContactSet::Snapshot& c) {
   }
   write_table(g, "committed_keys", keys, 3);
   write_table(g, "committed", values, 3);
+  // Friction histories (anchor_A, anchor_B, slip, state) and the dissipated energy: written by
+  // versions with friction; an older checkpoint has none (frictionless).
+  values.clear();
+  for (const auto& w : c.committed)
+    values.insert(values.end(), {w.anchor_A, w.anchor_B, w.slip, static_cast<double>(w.friction)});
+  write_table(g, "committed_friction", values, 4);
+  h5::write_double_attribute(g, "friction_dissipated", c.dissipated);
   keys.clear();
   values.clear();
   std::vector<int> flags;
@@ -243,6 +250,21 @@ SplineContactSet::Snapshot read_contact(hid_t parent) {
                            values[3 * i],
                            values[3 * i + 1],
                            values[3 * i + 2] != 0.0});
+  if (h5::exists(g, "committed_friction")) {
+    const std::vector<double> friction =
+        read_table(g, "committed_friction", static_cast<long>(c.committed.size()), 4);
+    for (std::size_t i = 0; i < c.committed.size(); ++i) {
+      auto& w = c.committed[i];
+      w.anchor_A = friction[4 * i];
+      w.anchor_B = friction[4 * i + 1];
+      w.slip = friction[4 * i + 2];
+      w.friction = static_cast<int>(friction[4 * i + 3]);
+      if (w.friction < 0 || w.friction > 2)
+        throw RestartError(
+            fmt::format("checkpoint: committed contact {} has friction state {}", i, w.friction));
+    }
+    c.dissipated = h5::read_double_attribute(g, "friction_dissipated");
+  }
   keys = read_int_table(g, "pair_keys", 3);
   const long n = static_cast<long>(keys.size() / 3);
   const std::vector<int> flags = read_int_table(g, "pair_flags", 4);

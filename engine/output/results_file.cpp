@@ -269,6 +269,7 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
     append_xdmf_grids(name, h5::read_double_attribute(group.id(), "time"),
                       h5::read_int_attribute(group.id(), "increment"), scalars,
                       dims.empty() ? 0 : static_cast<int>(dims[0]),
+                      h5::exists(group.id(), "contacts/tangential_force"),
                       h5::exists(group.id(), "surface"), h5::exists(group.id(), "contact_tube"));
   }
   steps_written_ = from.keep_steps;
@@ -299,6 +300,13 @@ void ResultsFile::write_step(const StepResults& step) {
   require_columns("contact normal", contacts.normal.cols(), n_contacts);
   require_size("contact gap", contacts.gap.size(), n_contacts);
   require_size("contact force", contacts.force.size(), n_contacts);
+  const bool friction =
+      contacts.tangential_force.cols() > 0 || contacts.stick.size() > 0 || contacts.slip.size() > 0;
+  if (friction) {
+    require_columns("contact tangential_force", contacts.tangential_force.cols(), n_contacts);
+    require_size("contact stick", contacts.stick.size(), n_contacts);
+    require_size("contact slip", contacts.slip.size(), n_contacts);
+  }
   for (std::size_t i = 0; i < step.scalars.size(); ++i) {
     const std::string& scalar = step.scalars[i].first;
     if (scalar.empty() || scalar == "increment" || scalar == "time")
@@ -334,6 +342,11 @@ void ResultsFile::write_step(const StepResults& step) {
   write_node_vectors(contact_group.id(), "normal", contacts.normal);
   write_vector(contact_group.id(), "gap", contacts.gap);
   write_vector(contact_group.id(), "force", contacts.force);
+  if (friction) {
+    write_node_vectors(contact_group.id(), "tangential_force", contacts.tangential_force);
+    write_vector(contact_group.id(), "stick", contacts.stick);
+    write_vector(contact_group.id(), "slip", contacts.slip);
+  }
   std::vector<int> vertices(static_cast<std::size_t>(n_contacts));
   std::iota(vertices.begin(), vertices.end(), 0);
   h5::write_dataset(contact_group.id(), "vertices", std::span<const int>(vertices),
@@ -353,7 +366,8 @@ void ResultsFile::write_step(const StepResults& step) {
   group.close();
   h5::flush(file_.id());
 
-  append_xdmf_grids(name, step.time, step.increment, step.scalars, n_contacts, surface, tubes);
+  append_xdmf_grids(name, step.time, step.increment, step.scalars, n_contacts, friction, surface,
+                    tubes);
   ++steps_written_;
   // The XDMF is rewritten whole, so rewriting it at every step of a long run would cost the
   // square of the step count: at most once a second, and always at the end. The .h5 holds
@@ -370,7 +384,7 @@ void ResultsFile::write_step(const StepResults& step) {
 
 void ResultsFile::append_xdmf_grids(const std::string& name, double time, int increment,
                                     const std::vector<std::pair<std::string, double>>& scalars,
-                                    int n_contacts, bool surface, bool tubes) {
+                                    int n_contacts, bool friction, bool surface, bool tubes) {
   // This step's grids in results.xdmf. Connectivity and radius are the mesh's, shared by all
   // steps. A step without contacts has no "contacts" grid: the readers then show no contact
   // block at that time (an empty HDF5 DataItem makes the XDMF 2 reader report an error).
@@ -430,6 +444,14 @@ void ResultsFile::append_xdmf_grids(const std::string& name, double time, int in
                         path + "/gap");
     append_h5_attribute(xdmf_contacts_, "force", "Scalar", "Node", std::to_string(n_contacts),
                         path + "/force");
+    if (friction) {
+      append_h5_attribute(xdmf_contacts_, "tangential_force", "Vector", "Node", contacts3,
+                          path + "/tangential_force");
+      append_h5_attribute(xdmf_contacts_, "stick", "Scalar", "Node", std::to_string(n_contacts),
+                          path + "/stick");
+      append_h5_attribute(xdmf_contacts_, "slip", "Scalar", "Node", std::to_string(n_contacts),
+                          path + "/slip");
+    }
     xdmf_contacts_ += "      </Grid>\n";
   }
   if (surface)

@@ -30,6 +30,8 @@
 //     contacts/position, contacts/normal (n_contacts, 3)        m, -
 //     contacts/gap, contacts/force (n_contacts)                 m, N
 //     contacts/vertices (n_contacts) int32                       0 .. n_contacts-1 (for XDMF)
+//     contacts/tangential_force (n_contacts, 3), contacts/stick, contacts/slip (n_contacts)
+//                                                               N, 1 or 0, m (with friction)
 //     surface/points (12 n_nodes, 3) float32                      m, ring points, node-major
 //     contact_tube/points (n_tube_points, 3) float32              m
 // Each step is flushed to disk when write_step returns; HDF5 file locking is off so ParaView can
@@ -76,6 +78,11 @@ struct ContactPoints {
   Eigen::Matrix3Xd normal;   ///< 3 x n_contacts, unit
   Eigen::VectorXd gap;       ///< n_contacts, m (negative: penetration)
   Eigen::VectorXd force;     ///< n_contacts, N (normal force magnitude)
+  /// With friction (all n_contacts long, else all empty): the friction force on the point's
+  /// first body, N; 1 in stick, 0 in slip; the slip since the point closed, m.
+  Eigen::Matrix3Xd tangential_force;
+  Eigen::VectorXd stick;
+  Eigen::VectorXd slip;
 };
 
 /// The state at the end of one completed increment.
@@ -141,7 +148,7 @@ private:
   /// Appends the XDMF grids of step `name` (under /steps) to the two collections.
   void append_xdmf_grids(const std::string& name, double time, int increment,
                          const std::vector<std::pair<std::string, double>>& scalars, int n_contacts,
-                         bool surface, bool tubes);
+                         bool friction, bool surface, bool tubes);
 
   std::filesystem::path h5_path_;
   std::filesystem::path xdmf_path_;

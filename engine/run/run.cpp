@@ -200,11 +200,15 @@ private:
 /// the thread count.
 class ContactPointsFile {
 public:
-  explicit ContactPointsFile(const Model& model) : model_(model) {
+  explicit ContactPointsFile(const Model& model) : model_(model), friction_(has_friction(model)) {
     file_.name = "contact_points.csv";
     file_.columns = {"increment [-]", "time [s]", "contact", "a",     "a_segment [-]", "b",
                      "b_segment [-]", "x [m]",    "y [m]",   "z [m]", "gap [m]",       "force [N]",
                      "nx [-]",        "ny [-]",   "nz [-]"};
+    // With friction: the tangential force on a, the state and the slip since the point closed.
+    if (friction_)
+      file_.columns.insert(file_.columns.end(),
+                           {"ftx [N]", "fty [N]", "ftz [N]", "state", "slip [m]"});
   }
 
   const CsvFile& file() const { return file_; }
@@ -221,18 +225,34 @@ public:
         return p.surface ? model_.surfaces[p.body[k]].name : model_.splines[p.body[k]].name;
       };
       auto number = [](double v) { return fmt::format("{}", v); };
-      out.emplace_back(&file_, std::vector<std::string>{
-                                   fmt::format("{}", increment), number(time), definition, body(0),
-                                   fmt::format("{}", p.segment[0] + 1), body(1),
-                                   fmt::format("{}", p.segment[1] + 1), number(p.position.x()),
-                                   number(p.position.y()), number(p.position.z()), number(p.gap),
-                                   number(p.force), number(p.normal.x()), number(p.normal.y()),
-                                   number(p.normal.z())});
+      std::vector<std::string> cells{fmt::format("{}", increment),
+                                     number(time),
+                                     definition,
+                                     body(0),
+                                     fmt::format("{}", p.segment[0] + 1),
+                                     body(1),
+                                     fmt::format("{}", p.segment[1] + 1),
+                                     number(p.position.x()),
+                                     number(p.position.y()),
+                                     number(p.position.z()),
+                                     number(p.gap),
+                                     number(p.force),
+                                     number(p.normal.x()),
+                                     number(p.normal.y()),
+                                     number(p.normal.z())};
+      if (friction_) {
+        static constexpr const char* kState[] = {"none", "stick", "slip"};
+        cells.insert(cells.end(),
+                     {number(p.tangential_force.x()), number(p.tangential_force.y()),
+                      number(p.tangential_force.z()), kState[p.friction], number(p.slip)});
+      }
+      out.emplace_back(&file_, std::move(cells));
     }
   }
 
 private:
   const Model& model_;
+  bool friction_;
   CsvFile file_;
 };
 
@@ -272,12 +292,7 @@ public:
     if (energy) {
       // The balance error is measured from its value at the start of an explicit step; before
       // any step it is zero by that definition.
-      const EnergyBalance e = sim.energy_balance();
-      const double stored = e.internal + e.contact;
-      out->rows.push_back(
-          {&energy_csv_,
-           {0.0, e.kinetic, e.internal, e.contact, e.external_work, e.prescribed_work, e.damping,
-            0.0, stored > 0 ? e.kinetic / stored : 0.0}});
+      out->rows.push_back(energy_row(0.0, sim.energy_balance(), 0.0));
     }
     writer_.post([this, out] {
       for (const CsvRow& row : out->rows)
@@ -308,11 +323,7 @@ public:
     }
     if (step.type == StepType::Explicit && step.energy_monitor) {
       const EnergyBalance e = sim.energy_balance();
-      const double stored = e.internal + e.contact;
-      out->rows.push_back(
-          {&energy_csv_,
-           {r.time, e.kinetic, e.internal, e.contact, e.external_work, e.prescribed_work, e.damping,
-            e.error, stored > 0 ? e.kinetic / stored : 0.0}});
+      out->rows.push_back(energy_row(r.time, e, e.error));
     }
     const bool last = r.time >= t_end_ * (1 - 1e-12);
     if (r.increment % std::max(1, step.output_every) == 0 || last) {
@@ -336,6 +347,16 @@ public:
           o.contacts.normal.col(k) = points[k].normal;
           o.contacts.gap(k) = points[k].gap;
           o.contacts.force(k) = points[k].force;
+        }
+        if (has_friction(model_)) {
+          o.contacts.tangential_force.resize(3, np);
+          o.contacts.stick.resize(np);
+          o.contacts.slip.resize(np);
+          for (int k = 0; k < np; ++k) {
+            o.contacts.tangential_force.col(k) = points[k].tangential_force;
+            o.contacts.stick(k) = points[k].friction == 1 ? 1.0 : 0.0;
+            o.contacts.slip(k) = points[k].slip;
+          }
         }
         o.scalars.push_back({"active_contacts", double(np)});
         o.scalars.push_back({"max_penetration", contact->max_penetration()});
@@ -414,9 +435,14 @@ private:
       rows.push_back(curves_->row(time, curve_values));
     }
     if (const ContactStage* contact = sim.contact()) {
-      rows.push_back({&contact_csv_,
-                      {time, double(contact->candidates()), double(contact->active()),
-                       contact->max_penetration(), contact->max_force(), contact->total_force()}});
+      const ContactSummary s = contact->summary();
+      std::vector<double> values{
+          time,        double(s.candidates), double(s.active), s.max_penetration,
+          s.max_force, s.total_force};
+      if (friction_)
+        values.insert(values.end(),
+                      {double(s.stick), double(s.slip), s.tangential_force, s.dissipation});
+      rows.push_back({&contact_csv_, std::move(values)});
       contact_points_.rows(*contact, increment, time, rows);
     }
   }
@@ -469,14 +495,39 @@ private:
   Clock::time_point start_, last_print_;
   double t_end_ = 0;
   long iterations_ = 0;
-  const CsvFile contact_csv_{"contact.csv",
-                             {"time [s]", "candidates [-]", "active [-]", "max_penetration [m]",
-                              "max_force [N]", "total_force [N]"}};
+  const bool friction_ = has_friction(model_);
+  /// With friction also: points in stick and in slip, the summed friction force and the energy
+  /// friction has dissipated since the start.
+  const CsvFile contact_csv_{
+      "contact.csv",
+      friction_
+          ? std::vector<std::string>{"time [s]", "candidates [-]", "active [-]",
+                                     "max_penetration [m]", "max_force [N]", "total_force [N]",
+                                     "stick [-]", "slip [-]", "tangential_force [N]",
+                                     "friction_dissipation [J]"}
+          : std::vector<std::string>{"time [s]", "candidates [-]", "active [-]",
+                                     "max_penetration [m]", "max_force [N]", "total_force [N]"}};
   const ContactPointsFile& contact_points_;
-  const CsvFile energy_csv_{"energy.csv",
-                            {"time [s]", "kinetic [J]", "internal [J]", "contact [J]",
-                             "external_work [J]", "prescribed_work [J]", "damping [J]",
-                             "balance_error [J]", "kinetic/internal [-]"}}; ///< explicit steps
+  /// Explicit steps; with friction also the energy it dissipated.
+  const CsvFile energy_csv_{
+      "energy.csv",
+      friction_
+          ? std::vector<std::string>{"time [s]", "kinetic [J]", "internal [J]", "contact [J]",
+                                     "external_work [J]", "prescribed_work [J]", "damping [J]",
+                                     "friction [J]", "balance_error [J]", "kinetic/internal [-]"}
+          : std::vector<std::string>{"time [s]", "kinetic [J]", "internal [J]", "contact [J]",
+                                     "external_work [J]", "prescribed_work [J]", "damping [J]",
+                                     "balance_error [J]", "kinetic/internal [-]"}};
+
+  CsvRow energy_row(double time, const EnergyBalance& e, double error) const {
+    const double stored = e.internal + e.contact;
+    std::vector<double> v{
+        time, e.kinetic, e.internal, e.contact, e.external_work, e.prescribed_work, e.damping};
+    if (friction_)
+      v.push_back(e.friction);
+    v.insert(v.end(), {error, stored > 0 ? e.kinetic / stored : 0.0});
+    return {&energy_csv_, std::move(v)};
+  }
   int explicit_reported_ = -1; ///< last explicit step announced
   std::unique_ptr<BiaxialCurves> curves_;
   std::string contact_status_;

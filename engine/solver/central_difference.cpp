@@ -868,8 +868,9 @@ void CentralDifference::start(double dt) {
   supplied_start_ = sim_.kinetic_energy() + sim_.strain_energy() + sim_.contact_energy();
   supplied_max_ = supplied_start_;
   prescribed_start_ = sim_.prescribed_work_;
-  sim_.energy_reference_ =
-      supplied_start_ + sim_.damping_work_ - sim_.external_work_ - sim_.prescribed_work_;
+  sim_.energy_reference_ = supplied_start_ + sim_.damping_work_ - sim_.external_work_ -
+                           sim_.prescribed_work_ +
+                           (sim_.contact_ ? sim_.contact_->summary().dissipation : 0.0);
   energy_floor_ = sim_.floor_force_ * sim_.min_length_;
 
   h_target_ = status_.dt;
@@ -948,8 +949,9 @@ EnergyBalance Simulation::energy_balance() const {
   e.external_work = external_work_;
   e.prescribed_work = prescribed_work_;
   e.damping = damping_work_;
-  e.error = e.kinetic + e.internal + e.contact + e.damping - e.external_work - e.prescribed_work -
-            energy_reference_;
+  e.friction = contact_ ? contact_->summary().dissipation : 0.0;
+  e.error = e.kinetic + e.internal + e.contact + e.damping + e.friction - e.external_work -
+            e.prescribed_work - energy_reference_;
   return e;
 }
 

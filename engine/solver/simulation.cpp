@@ -71,9 +71,11 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
     const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
                                      [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
     // Surface contact near a node between elements carries a share of the force whose
-    // derivative makes the tangent non-symmetric (contact::SurfaceContactOptions::end_window).
-    kind = moments || !model.surface_contacts.empty() ? LinearSolverKind::LU
-                                                      : LinearSolverKind::LDLTSymmetric;
+    // derivative makes the tangent non-symmetric (contact::SurfaceContactOptions::end_window);
+    // so does friction (contact/friction.hpp).
+    kind = moments || has_friction(model) || !model.surface_contacts.empty()
+               ? LinearSolverKind::LU
+               : LinearSolverKind::LDLTSymmetric;
   }
   solver_ = make_linear_solver(kind);
   contact_ = ContactStage::of(model);

@@ -89,8 +89,9 @@ struct EnergyBalance {
   double external_work = 0;   ///< work of the nodal loads since the start of the run
   double prescribed_work = 0; ///< work of the reactions at prescribed DOFs
   double damping = 0;         ///< dissipated by Rayleigh damping
-  /// kinetic + internal + contact + damping - works, less its value at the start of the last
-  /// explicit step: zero for an exact integrator.
+  double friction = 0;        ///< dissipated by friction since the start of the run
+  /// kinetic + internal + contact + damping + friction - works, less its value at the start of
+  /// the last explicit step: zero for an exact integrator.
   double error = 0;
 };
 

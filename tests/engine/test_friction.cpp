@@ -1,0 +1,225 @@
+// Coulomb friction in the engine (contact/friction.hpp through the spline contact set): a slider
+// pressed on a rail by a fixed normal force N and dragged along it, checked against the exact
+// answers of the elastic-plastic friction law (issue "Friction between yarns", acceptance):
+// stick while eps_t u < mu N, then |f_t| = mu N; a static peak mu_s N, then mu_k N; the
+// hysteresis loop's area 4 mu N (u_a - mu N / eps_t); the dissipated energy mu N s and the
+// balance of the work of the drag; the force held while the point slides over the rail's
+// segment boundaries (history handed over between segment pairs); Newton's rate in slip.
+#include "beam_models.hpp"
+#include "engine/solver/simulation.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <gtest/gtest.h>
+#include <numbers>
+#include <vector>
+
+namespace yarnsim {
+namespace {
+
+constexpr double kRadius = 0.01;    // m
+constexpr double kNormal = 2.0;     // N, pressing the slider on the rail
+constexpr double kEpsT = 1e4;       // N/m, tangential penalty
+constexpr double kRailElements = 8; // rail of 1 m: spline segments about 1 / 16 m long
+
+/// The drag: a rigid rail along x (all nodes clamped) and a slider along y across it at x = 0,
+/// touching; every slider node may move only in z (y and rotations held, x prescribed). Step 1
+/// presses the slider down by N at its middle node (0 < t < 1); from t = 1 on the slider's x is
+/// the table `drag` (m, of time) while N stays. The friction force is the x reaction of the
+/// slider's nodes (the drag force).
+struct Drag {
+  Model model;
+  std::vector<int> slider;
+};
+
+Drag drag_model(double mu_s, double mu_k, const TimeTable& drag, double t_end, double dt) {
+  const double E = 1e9, A = std::numbers::pi * kRadius * kRadius;
+  const double I = std::numbers::pi * std::pow(kRadius, 4) / 4;
+  const Section s = test::stiffness_section(E * A, E * A, E * I, E * I);
+  const int n_rail = static_cast<int>(kRailElements), n_slider = 4;
+  Model m = test::straight_beam({-0.5, 0, 0}, {0.5, 0, 0}, n_rail, s);
+  const Model slider = test::straight_beam({0, -0.1, 2 * kRadius}, {0, 0.1, 2 * kRadius}, n_slider,
+                                           s, Eigen::Vector3d::UnitX());
+  const int offset = test::append_beam(m, slider);
+  Drag d;
+  NodeSet rail{"rail", {}}, slide{"slider", {}};
+  for (int i = 0; i <= 2 * n_rail; ++i)
+    rail.nodes.push_back(i);
+  for (int i = 0; i <= 2 * n_slider; ++i)
+    slide.nodes.push_back(offset + i);
+  d.slider = slide.nodes;
+  m.node_sets = {rail, slide, NodeSet{"slider_mid", {offset + n_slider}}};
+  m.constraints.push_back(test::clamp(0));
+  m.constraints.push_back(Constraint{1, {false, true, false, true, true, true}});
+  PrescribedMotion p;
+  p.node_set = 1;
+  p.displacement[0] = drag;
+  m.prescribed.push_back(p);
+  m.loads.push_back(NodalLoad{2, Eigen::Vector3d(0, 0, -kNormal), Eigen::Vector3d::Zero(), false,
+                              TimeTable{{0.0, 1.0, t_end}, {0.0, 1.0, 1.0}}});
+  Spline a{"rail", rail.nodes, kRadius}, b{"slider", slide.nodes, kRadius};
+  m.splines = {a, b};
+  SplineContactDefinition c{"drag", {0}, {1}, {1e5, 1.0, 0.0}, false, 0};
+  c.friction = {mu_s, mu_k, kEpsT};
+  m.spline_contacts.push_back(c);
+  SolutionStep press = test::static_step(1.0, 0.25, 1e-10);
+  SolutionStep pull = test::static_step(t_end, dt, 1e-10);
+  pull.dt_min = dt; // no halving: the increments are the test's sampling
+  m.steps = {press, pull};
+  d.model = std::move(m);
+  return d;
+}
+
+/// Per increment of the drag: time, imposed x, drag force (x reaction sum of the slider, N),
+/// the contact's summary, and the Newton residuals.
+struct Sample {
+  double time, u, force;
+  ContactSummary contact;
+  std::vector<double> residuals;
+};
+
+class Recorder final : public SimulationObserver {
+public:
+  Recorder(const Drag& d, const TimeTable& drag) : drag_(d), table_(drag) {}
+  void on_increment(const Simulation& sim, const IncrementReport& r) override {
+    double rx = 0;
+    for (int node : drag_.slider)
+      rx += sim.reactions()(0, node);
+    // The drag force (what the crosshead pulls with) is the x reaction of the slider's nodes; it
+    // balances the friction force on the slider, which opposes the motion.
+    samples.push_back(
+        {r.time, table_.at(r.time), rx, sim.contact()->summary(), r.residual_history});
+  }
+  std::vector<Sample> samples;
+
+private:
+  const Drag& drag_;
+  TimeTable table_;
+};
+
+TEST(Friction, DraggedSliderSticksThenSlipsAtMuNOverManySegments) {
+  // 0 to 0.2 m in 100 increments of 2 mm: stick up to mu N / eps_t = 0.06 mm... so the first
+  // increment already slips; the slide crosses three rail segments (1/16 m each).
+  const double mu = 0.3, t_end = 2.0;
+  const TimeTable drag{{0.0, 1.0, t_end}, {0.0, 0.0, 0.2}};
+  Drag d = drag_model(mu, mu, drag, t_end, 0.01);
+  Simulation sim(d.model);
+  Recorder rec(d, drag);
+  sim.run(&rec);
+  int slipping = 0;
+  for (const Sample& s : rec.samples) {
+    if (s.time <= 1.0) {
+      EXPECT_NEAR(s.force, 0.0, 1e-9) << "t = " << s.time; // pressing only
+      continue;
+    }
+    const double stick = kEpsT * s.u;
+    const double expected = std::min(stick, mu * kNormal);
+    EXPECT_NEAR(s.force, expected, 1e-8 * mu * kNormal) << "t = " << s.time << ", u = " << s.u;
+    if (stick > mu * kNormal) {
+      ++slipping;
+      EXPECT_EQ(s.contact.slip, 1) << "t = " << s.time;
+    }
+  }
+  EXPECT_GT(slipping, 90);
+}
+
+TEST(Friction, StickBelowTheConeThenSlipWithAStaticPeak) {
+  // mu_s N / eps_t = 0.1 mm, mu_k N / eps_t = 0.06 mm; steps of 0.021 mm (none on the cone).
+  const double mu_s = 0.5, mu_k = 0.3, t_end = 1.5;
+  const TimeTable drag{{0.0, 1.0, t_end}, {0.0, 0.0, 0.21e-3}};
+  Drag d = drag_model(mu_s, mu_k, drag, t_end, 0.05);
+  Simulation sim(d.model);
+  Recorder rec(d, drag);
+  sim.run(&rec);
+  bool peaked = false;
+  for (const Sample& s : rec.samples) {
+    if (s.time <= 1.0)
+      continue;
+    const double stick = kEpsT * s.u;
+    if (!peaked && stick <= mu_s * kNormal * (1 + 1e-12)) {
+      // Held by the static coefficient: elastic, |f| = eps_t u (above mu_k N too).
+      EXPECT_NEAR(s.force, stick, 1e-8 * mu_s * kNormal) << "t = " << s.time;
+      EXPECT_EQ(s.contact.stick, 1) << "t = " << s.time;
+    } else if (!peaked) {
+      // The increment it breaks loose: bounded by mu_s N.
+      EXPECT_NEAR(s.force, mu_s * kNormal, 1e-8 * mu_s * kNormal) << "t = " << s.time;
+      peaked = true;
+    } else {
+      EXPECT_NEAR(s.force, mu_k * kNormal, 1e-8 * mu_k * kNormal) << "t = " << s.time;
+    }
+  }
+  EXPECT_TRUE(peaked);
+}
+
+TEST(Friction, HysteresisLoopAreaDissipationAndEnergyBalanceAreExact) {
+  // u: 0 -> u_a -> -u_a -> u_a. mu N / eps_t = 0.25 mm falls on the increments (0.05 mm), so
+  // the trapezoidal integral of the piecewise linear f(u) is exact.
+  const double mu = 0.5, ua = 1e-3, t_end = 6.0;
+  const double cone = mu * kNormal / kEpsT;
+  const TimeTable drag{{0.0, 1.0, 2.0, 4.0, 6.0}, {0.0, 0.0, ua, -ua, ua}};
+  Drag d = drag_model(mu, mu, drag, t_end, 0.05);
+  Simulation sim(d.model);
+  Recorder rec(d, drag);
+  sim.run(&rec);
+  // Work of the drag, W = integral f du, over the first pull (t 1 to 2) and over the closed
+  // cycle (t 2 to 6).
+  double first = 0, loop = 0;
+  for (std::size_t k = 1; k < rec.samples.size(); ++k) {
+    const Sample &a = rec.samples[k - 1], &b = rec.samples[k];
+    const double w = 0.5 * (a.force + b.force) * (b.u - a.u);
+    if (b.time <= 2.0 + 1e-12 && a.time >= 1.0 - 1e-12)
+      first += w;
+    else if (a.time >= 2.0 - 1e-12)
+      loop += w;
+  }
+  const double exact_loop = 4 * mu * kNormal * (ua - cone);
+  std::printf("loop area %.9e J (exact %.9e), first pull %.9e J\n", loop, exact_loop, first);
+  EXPECT_NEAR(loop, exact_loop, 1e-9 * exact_loop);
+  // First pull: a slide of s = u_a - mu N / eps_t dissipates mu N s; the rest is stored in the
+  // tangential spring, (mu N)^2 / (2 eps_t).
+  const Sample* end_of_pull = nullptr;
+  for (const Sample& s : rec.samples)
+    if (std::abs(s.time - 2.0) < 1e-9)
+      end_of_pull = &s;
+  ASSERT_NE(end_of_pull, nullptr);
+  const Sample* pressed = nullptr;
+  for (const Sample& s : rec.samples)
+    if (std::abs(s.time - 1.0) < 1e-9)
+      pressed = &s;
+  ASSERT_NE(pressed, nullptr);
+  const double slide = ua - cone;
+  EXPECT_NEAR(end_of_pull->contact.dissipation, mu * kNormal * slide, 1e-9 * mu * kNormal * slide);
+  const double stored = end_of_pull->contact.potential - pressed->contact.potential;
+  EXPECT_NEAR(stored, std::pow(mu * kNormal, 2) / (2 * kEpsT), 1e-6 * stored);
+  EXPECT_NEAR(first, stored + end_of_pull->contact.dissipation, 1e-9 * first);
+  // The whole cycle dissipates the loop's area on top of the first slide.
+  EXPECT_NEAR(rec.samples.back().contact.dissipation - end_of_pull->contact.dissipation, loop,
+              1e-9 * loop);
+}
+
+TEST(Friction, NewtonConvergesQuadraticallyInSlip) {
+  const double mu = 0.3, t_end = 1.5;
+  const TimeTable drag{{0.0, 1.0, t_end}, {0.0, 0.0, 0.05}};
+  Drag d = drag_model(mu, mu, drag, t_end, 0.05);
+  Simulation sim(d.model);
+  Recorder rec(d, drag);
+  sim.run(&rec);
+  int checked = 0;
+  for (const Sample& s : rec.samples) {
+    if (s.time <= 1.0 || s.contact.slip != 1)
+      continue;
+    const std::vector<double>& r = s.residuals;
+    // The last three residuals above round-off: r_k+1 <= C r_k^2 with a modest C, i.e. the
+    // number of correct digits at least doubles (less one digit of slack).
+    for (std::size_t k = 1; k + 1 < r.size(); ++k)
+      if (r[k] > 1e-12 && r[k] < 1e-2)
+        EXPECT_LT(std::log10(r[k + 1]), 2 * std::log10(r[k]) + 1.5)
+            << "t = " << s.time << ", iteration " << k;
+    EXPECT_LE(r.size(), 7u) << "t = " << s.time;
+    ++checked;
+  }
+  EXPECT_GT(checked, 5);
+}
+
+} // namespace
+} // namespace yarnsim
