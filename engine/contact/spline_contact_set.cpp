@@ -193,7 +193,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
             const Definition& d = *definitions_[item.definition];
             contact::SplineFrictionResult& f = friction_[w];
             f.active = false;
-            if (!d.friction || !item.result.active || !sensitivity_[w].valid)
+            if (!d.friction || !item.result.active || !sensitivity_[w].valid || item.first_touch)
               continue;
             const std::array<int, 6> n = nodes_of(d, item.pair);
             Eigen::Matrix3d A, B;
@@ -298,6 +298,7 @@ void SplineContactSet::assign_friction_histories() {
   std::vector<char> taken(committed_.size(), 0);
   for (std::size_t w = 0; w < work_.size(); ++w) {
     Work& item = work_[w];
+    item.first_touch = false;
     const Definition& d = *definitions_[item.definition];
     if (!d.friction || !item.result.active || !sensitivity_[w].valid)
       continue;
@@ -331,6 +332,7 @@ void SplineContactSet::assign_friction_histories() {
     } else {
       item.history = contact::first_touch(item.result);
       item.slip = 0;
+      item.first_touch = true;
     }
   }
 }
@@ -356,6 +358,12 @@ void SplineContactSet::commit() {
       warm.slip = item.slip + f.slip_increment;
       // The plastic work of the slip: the force on the cone times the slip, mu f_n |dg_s|.
       dissipated_ += f.mu * r.force * f.slip_increment;
+    } else if (any_friction_ && item.first_touch) {
+      // Closed in this increment: anchored where it is, stuck.
+      warm.anchor_A = item.history.xi_A;
+      warm.anchor_B = item.history.xi_B;
+      warm.friction = 1;
+      warm.slip = 0;
     }
   }
   std::swap(committed_, next_committed_);
@@ -488,6 +496,11 @@ void SplineContactSet::summarise() {
     if (!f.active)
       continue;
     ++(f.slipping ? summary_.slip : summary_.stick);
+    // A point that passes between stick and slip crosses a kink of the friction law as a pair
+    // that opens or closes crosses the normal law's: the Newton iteration damps that step too.
+    if (f.slipping)
+      summary_.active_set = fold_active_pair(summary_.active_set, -1 - work_[w].definition,
+                                             work_[w].pair.first, work_[w].pair.second);
     summary_.tangential_force += f.force.norm();
     // The tangential spring's elastic energy, |f|^2 / (2 eps_t), is stored with the normal one.
     summary_.potential +=

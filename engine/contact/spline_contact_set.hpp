@@ -90,6 +90,10 @@ private:
     /// accumulated before this increment, m.
     contact::FrictionHistory history;
     double slip = 0;
+    /// An active point contact with friction and no history: it closed in this increment. It
+    /// carries no friction until the increment converges, which anchors it where it closed (a
+    /// history that followed the iterate would give zero force with a tangent that is not).
+    bool first_touch = false;
   };
 
   std::array<int, 6> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;

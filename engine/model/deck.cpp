@@ -1,4 +1,5 @@
 #include "engine/model/deck.hpp"
+#include "engine/model/contact_friction.hpp"
 
 #include "engine/model/deck_schema.hpp"
 #include "engine/model/model_deck.hpp"
@@ -1481,47 +1482,6 @@ private:
     }
   }
 
-  /// Coulomb friction: `friction` (mu_s = mu_k), or `static_friction` and `kinetic_friction`;
-  /// `tangential_penalty` (default: the normal penalty of a linear law).
-  void contact_friction(const CheckedTable& t, const InterfaceLawParameters& law,
-                        FrictionParameters& friction) const {
-    const bool one = t.present("friction");
-    const bool two = t.present("static_friction") || t.present("kinetic_friction");
-    if (one && two) {
-      t.error(t.present("static_friction") ? "static_friction" : "kinetic_friction",
-              "give either 'friction' (one coefficient) or 'static_friction' and "
-              "'kinetic_friction', not both");
-      return;
-    }
-    if (one) {
-      friction.mu_static = friction.mu_kinetic = t.number("friction").value_or(0);
-    } else if (two) {
-      if (!t.present("static_friction"))
-        t.missing("static_friction", "a number >= kinetic_friction, with 'kinetic_friction'");
-      if (!t.present("kinetic_friction"))
-        t.missing("kinetic_friction", "a number <= static_friction, with 'static_friction'");
-      friction.mu_static = t.number("static_friction").value_or(0);
-      friction.mu_kinetic = t.number("kinetic_friction").value_or(0);
-      if (friction.mu_kinetic > friction.mu_static)
-        t.error("kinetic_friction",
-                fmt::format("expected kinetic_friction <= static_friction ({}), found {}",
-                            friction.mu_static, friction.mu_kinetic));
-    }
-    if (!friction.active()) {
-      if (t.present("tangential_penalty"))
-        t.error("tangential_penalty",
-                "'tangential_penalty' applies only with friction (a coefficient above 0)");
-      return;
-    }
-    if (t.present("tangential_penalty"))
-      friction.tangential_penalty = t.number("tangential_penalty").value_or(0);
-    else if (law.exponent == 1.0)
-      friction.tangential_penalty = law.penalty; // N/m, the normal linear penalty
-    else
-      t.missing("tangential_penalty",
-                "a number > 0 (N/m), with friction on a power law (whose penalty is not in N/m)");
-  }
-
   /// [[contacts]]: spline or surface groups as indices into Model::splines or Model::surfaces,
   /// and the interface law.
   void contacts() {
@@ -1572,7 +1532,7 @@ private:
       c.name = name;
       contact_groups(t, {spline_names_, "spline", "[[splines]]"}, c.group_a, c.group_b);
       contact_law(t, c.law);
-      contact_friction(t, c.law, c.friction);
+      read_contact_friction(t, c.law, c.friction);
       c.self_contact = t.boolean("self_contact").value_or(false);
       c.margin = t.number("margin").value_or(0);
       c.line_contact = t.boolean("line_contact").value_or(true);

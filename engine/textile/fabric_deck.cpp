@@ -1,5 +1,6 @@
 #include "engine/textile/fabric_deck.hpp"
 
+#include "engine/model/contact_friction.hpp"
 #include "engine/model/deck.hpp"
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/texgen.hpp"
@@ -130,6 +131,10 @@ constexpr KeySpec kContactKeys[] = {
     {"penalty", Type::Number, kOptional, kPositive},
     {"exponent", Type::Number, kOptional, kAtLeastOne},
     {"damping", Type::Number, kOptional, kNonNegative},
+    {"friction", Type::Number, kOptional, kNonNegative},
+    {"static_friction", Type::Number, kOptional, kNonNegative},
+    {"kinetic_friction", Type::Number, kOptional, kNonNegative},
+    {"tangential_penalty", Type::Number, kOptional, kPositive},
 };
 constexpr TableSpec kContact{"[contact]", kContactKeys};
 
@@ -258,6 +263,14 @@ public:
         contact ? contact_formulation(*contact) : ContactFormulation::Spline;
     const InterfaceLawParameters law =
         contact ? contact_law(*contact, formulation) : default_law(formulation);
+    FrictionParameters friction;
+    if (contact) {
+      read_contact_friction(*contact, law, friction);
+      if (friction.active() && formulation == ContactFormulation::Surface)
+        contact->error(contact->present("friction") ? "friction" : "static_friction",
+                       "friction is available for spline contact only; surface contact is "
+                       "frictionless in this version");
+    }
     std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
     // A TexGen file is read, and its own problems reported, whatever the rest of the deck holds.
     std::optional<Fabric> built;
@@ -292,6 +305,8 @@ public:
     }
     if (auto title = root_.string("title"))
       built->model.title = *title;
+    for (SplineContactDefinition& c : built->model.spline_contacts)
+      c.friction = friction;
     return std::move(built->model);
   }
 

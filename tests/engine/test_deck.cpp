@@ -32,6 +32,7 @@ std::vector<std::string> errors_of(std::string_view deck) {
   return test::errors_of(deck, "deck.toml");
 }
 using test::joined;
+using test::has;
 
 // A small valid deck; tests break one thing at a time.
 constexpr std::string_view kValid = R"(title = "two elements"
@@ -803,6 +804,61 @@ TEST(DeckSplines, GroupsAreGivenOneWay) {
   EXPECT_EQ(errors[0], where(deck, "false") +
                            "contacts[1].self_contact: expected true with a single group of "
                            "splines (contact within it), found false");
+}
+
+TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
+  EXPECT_FALSE(read_deck_string(kSplines, "deck.toml").spline_contacts[0].friction.active());
+  const auto friction_of = [](const std::string& deck) {
+    return read_deck_string(deck, "deck.toml").spline_contacts[0].friction;
+  };
+  // One coefficient for both; the power law needs its tangential penalty in N/m.
+  FrictionParameters f = friction_of(replace(
+      kSplines, "margin = 0.001\n", "margin = 0.001\nfriction = 0.2\ntangential_penalty = 1e5\n"));
+  EXPECT_DOUBLE_EQ(f.mu_static, 0.2);
+  EXPECT_DOUBLE_EQ(f.mu_kinetic, 0.2);
+  EXPECT_DOUBLE_EQ(f.tangential_penalty, 1e5);
+  f = friction_of(replace(kSplines, "margin = 0.001\n",
+                          "margin = 0.001\nstatic_friction = 0.3\nkinetic_friction = 0.2\n"
+                          "tangential_penalty = 1e5\n"));
+  EXPECT_DOUBLE_EQ(f.mu_static, 0.3);
+  EXPECT_DOUBLE_EQ(f.mu_kinetic, 0.2);
+  // A linear law lends its penalty to the tangential one.
+  std::string linear = replace(kSplines, "law = \"power\"", "law = \"linear\"");
+  linear = replace(linear, "exponent = 1.5\n", "");
+  f = friction_of(replace(linear, "margin = 0.001\n", "margin = 0.001\nfriction = 0.2\n"));
+  EXPECT_DOUBLE_EQ(f.tangential_penalty,
+                   read_deck_string(linear, "deck.toml").spline_contacts[0].law.penalty);
+
+  const auto errors_with = [](const std::string& keys) {
+    return errors_of(replace(kSplines, "margin = 0.001\n", "margin = 0.001\n" + keys));
+  };
+  auto errors = errors_with("friction = 0.2\n");
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_TRUE(has(errors, "contacts[0]: missing required key 'tangential_penalty' (a number > 0 "
+                          "(N/m), with friction on a power law"))
+      << joined(errors);
+  errors = errors_with("friction = 0.2\nstatic_friction = 0.3\n");
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_TRUE(has(errors, "contacts[0].static_friction: give either 'friction' (one coefficient) "
+                          "or 'static_friction' and 'kinetic_friction', not both"))
+      << joined(errors);
+  errors = errors_with("static_friction = 0.2\nkinetic_friction = 0.3\ntangential_penalty = 1e5\n");
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_TRUE(has(errors, "contacts[0].kinetic_friction: expected kinetic_friction <= "
+                          "static_friction (0.2), found 0.3"))
+      << joined(errors);
+  errors = errors_with("static_friction = 0.2\ntangential_penalty = 1e5\n");
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_TRUE(has(errors, "missing required key 'kinetic_friction'")) << joined(errors);
+  errors = errors_with("tangential_penalty = 1e5\n");
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_TRUE(has(errors, "contacts[0].tangential_penalty: 'tangential_penalty' applies only with "
+                          "friction"))
+      << joined(errors);
+  errors = errors_with("friction = -0.1\n");
+  ASSERT_GE(errors.size(), 1u);
+  EXPECT_TRUE(has(errors, "contacts[0].friction: expected a number >= 0, found -0.1"))
+      << joined(errors);
 }
 
 TEST(DeckSplines, AllAngleContactKeysDefaultAndAreChecked) {

@@ -319,14 +319,16 @@ TEST(ParallelContact, AModelWithBadAllAngleSettingsIsRefused) {
 struct Bits : SimulationObserver {
   std::vector<Eigen::Matrix3Xd> x;
   std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> reactions;
-  std::vector<double> force, potential;
-  std::vector<int> iterations;
+  std::vector<double> force, potential, dissipation;
+  std::vector<int> iterations, slipping;
   std::vector<SimulationCheckpoint> checkpoints;
   void on_increment(const Simulation& s, const IncrementReport& r) override {
     x.push_back(s.state().x_n);
     reactions.push_back(s.reactions());
     force.push_back(s.contact()->total_force());
     potential.push_back(s.contact_energy());
+    dissipation.push_back(s.contact()->summary().dissipation);
+    slipping.push_back(s.contact()->summary().slip);
     iterations.push_back(r.iterations);
     checkpoints.push_back(s.checkpoint());
   }
@@ -340,6 +342,7 @@ void expect_same_bits(const Bits& a, std::size_t from, const Bits& b) {
     EXPECT_TRUE((a.reactions[from + k].array() == b.reactions[k].array()).all()) << k;
     EXPECT_EQ(a.force[from + k], b.force[k]) << k;
     EXPECT_EQ(a.potential[from + k], b.potential[k]) << k;
+    EXPECT_EQ(a.dissipation[from + k], b.dissipation[k]) << k;
     EXPECT_EQ(a.iterations[from + k], b.iterations[k]) << k;
   }
 }
@@ -368,6 +371,40 @@ TEST(ParallelContact, TheDoubleHelixIsBitwiseTheSameOnOneAndTwoThreadsAndAfterAR
                                     ("yarnsim_helix_checkpoint_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   output::write_checkpoint(dir, one.checkpoints[k], {1, {}, "helix"});
+  const output::StoredCheckpoint stored = output::read_checkpoint(dir);
+  std::filesystem::remove_all(dir);
+  Bits from_file;
+  Simulation(m, {}, stored.simulation).run(&from_file);
+  expect_same_bits(one, k + 1, from_file);
+}
+
+TEST(ParallelContact, FrictionIsBitwiseTheSameOnOneAndTwoThreadsAndAfterARestart) {
+  // The paper's k = 1 fabric with mu = 0.2 at the crossings, to t = 0.4 s: the crossings close
+  // from about t = 0.1 s on and some of them slip (the yarns straighten under them).
+  Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "biaxial-k1.toml");
+  m.steps.back().end_time = 0.4;
+  m.spline_contacts[0].friction = {0.2, 0.2, m.spline_contacts[0].law.penalty};
+  Bits one, two;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    Simulation(m).run(&one);
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    Simulation(m).run(&two);
+  }
+  ASSERT_GT(one.force.back(), 0.0);
+  ASSERT_GT(one.dissipation.back(), 0.0) << "no slip: the test would not exercise the history";
+  expect_same_bits(one, 0, two);
+  // Restarted through the checkpoint file from an increment with points in slip.
+  std::size_t k = one.x.size() / 2;
+  while (k + 2 < one.x.size() && one.slipping[k] == 0)
+    ++k;
+  ASSERT_GT(one.slipping[k], 0);
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("yarnsim_friction_checkpoint_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  output::write_checkpoint(dir, one.checkpoints[k], {1, {}, "friction"});
   const output::StoredCheckpoint stored = output::read_checkpoint(dir);
   std::filesystem::remove_all(dir);
   Bits from_file;

@@ -99,6 +99,27 @@ strain_ratio = 2.0
   EXPECT_EQ(m.monitors.size(), 2u);
 }
 
+TEST(FabricDeck, ContactFrictionReachesTheWarpWeftContact) {
+  const Model frictionless = read_deck_string(kValid, "fabric.toml");
+  ASSERT_EQ(frictionless.spline_contacts.size(), 1u);
+  EXPECT_FALSE(frictionless.spline_contacts[0].friction.active());
+  const Model m = read_deck_string(std::string(kValid) + "[contact]\npenalty = 2e6\n"
+                                                         "static_friction = 0.3\n"
+                                                         "kinetic_friction = 0.2\n",
+                                   "fabric.toml");
+  ASSERT_EQ(m.spline_contacts.size(), 1u);
+  const FrictionParameters& f = m.spline_contacts[0].friction;
+  EXPECT_DOUBLE_EQ(f.mu_static, 0.3);
+  EXPECT_DOUBLE_EQ(f.mu_kinetic, 0.2);
+  EXPECT_DOUBLE_EQ(f.tangential_penalty, 2e6); // the linear law's penalty
+  // Surface contact has no friction yet: said, not dropped.
+  const auto e = errors_of(std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n");
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_NE(e[0].find("contact.friction: friction is available for spline contact only"),
+            std::string::npos)
+      << e[0];
+}
+
 TEST(FabricDeck, ExamplesAreThePapersStudy) {
   for (auto [file, k] : {std::pair{"biaxial-k1.toml", 1.0}, std::pair{"biaxial-k2.toml", 2.0},
                          std::pair{"biaxial-k0.5.toml", 0.5}}) {

@@ -1,0 +1,46 @@
+#include "engine/model/contact_friction.hpp"
+
+#include <fmt/format.h>
+
+namespace yarnsim {
+
+void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParameters& law,
+                           FrictionParameters& friction) {
+  const bool one = t.present("friction");
+  const bool two = t.present("static_friction") || t.present("kinetic_friction");
+  if (one && two) {
+    t.error(t.present("static_friction") ? "static_friction" : "kinetic_friction",
+            "give either 'friction' (one coefficient) or 'static_friction' and "
+            "'kinetic_friction', not both");
+    return;
+  }
+  if (one) {
+    friction.mu_static = friction.mu_kinetic = t.number("friction").value_or(0);
+  } else if (two) {
+    if (!t.present("static_friction"))
+      t.missing("static_friction", "a number >= kinetic_friction, with 'kinetic_friction'");
+    if (!t.present("kinetic_friction"))
+      t.missing("kinetic_friction", "a number <= static_friction, with 'static_friction'");
+    friction.mu_static = t.number("static_friction").value_or(0);
+    friction.mu_kinetic = t.number("kinetic_friction").value_or(0);
+    if (friction.mu_kinetic > friction.mu_static)
+      t.error("kinetic_friction",
+              fmt::format("expected kinetic_friction <= static_friction ({}), found {}",
+                          friction.mu_static, friction.mu_kinetic));
+  }
+  if (!friction.active()) {
+    if (t.present("tangential_penalty"))
+      t.error("tangential_penalty",
+              "'tangential_penalty' applies only with friction (a coefficient above 0)");
+    return;
+  }
+  if (t.present("tangential_penalty"))
+    friction.tangential_penalty = t.number("tangential_penalty").value_or(0);
+  else if (law.exponent == 1.0)
+    friction.tangential_penalty = law.penalty; // N/m, the normal linear penalty
+  else
+    t.missing("tangential_penalty",
+              "a number > 0 (N/m), with friction on a power law (whose penalty is not in N/m)");
+}
+
+} // namespace yarnsim
