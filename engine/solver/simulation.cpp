@@ -467,6 +467,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   std::vector<double> moment_history; // N m, moment residual norm of each iteration
   bool damping_gave_up = false;       // no damping made the corrections contract
   std::uint64_t last_active_set = 0;  // of the point the correction in use started from
+  std::string last_veto;
   for (int iter = 0; iter <= step.max_iterations; ++iter) {
     if (stop_requested())
       throw_interrupted();
@@ -479,6 +480,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     if (!ev.veto.empty()) {
       if (!can_damp)
         return ev.veto;
+      last_veto = ev.veto;
       // Back along the correction from a configuration the contact cannot project.
       const double next = 0.5 * lambda;
       if (next < kMinDamping)
@@ -490,7 +492,13 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     const int worst_dof = ev.worst_dof;
     report.residual_history.push_back(ev.relative);
     const std::uint64_t active_set = contact_ ? contact_->summary().active_set : 0;
-    const bool damping = can_damp && active_set != last_active_set;
+    // Also where the residual has fallen by less than a fifth over two iterations: full steps are
+    // cycling, e.g. between stick and slip of a point whose sliding reverses (the same
+    // fingerprint on both sides of the cycle).
+    const std::vector<double>& history = report.residual_history;
+    const bool stagnating =
+        history.size() >= 3 && history.back() > 0.8 * history[history.size() - 3];
+    const bool damping = can_damp && (active_set != last_active_set || stagnating);
 
     // Converged: the residual within the tolerance of its reference (or at its round-off floor)
     // and the last correction, as applied, within the tolerance of the increment's motion.
@@ -616,7 +624,9 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       last_da = std::max(last_da, std::sqrt(da));
     }
   }
-  return "unreachable";
+  // The last iteration's iterate was vetoed and damped back (the loop's `continue`).
+  return fmt::format("no convergence in {} iterations (the last iterates were vetoed: {})",
+                     step.max_iterations, last_veto);
 }
 
 void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
