@@ -1533,6 +1533,12 @@ private:
       contact_groups(t, {spline_names_, "spline", "[[splines]]"}, c.group_a, c.group_b);
       contact_law(t, c.law);
       read_contact_friction(t, c.law, c.friction);
+      if (c.friction.active() && explicit_step_ != nullptr)
+        t.error(t.present("friction") ? "friction" : "static_friction",
+                fmt::format("friction is not available on the explicit path in this version ({} "
+                            "is explicit): its energy balance does not close (docs/formulation.md, "
+                            "\"Friction\")",
+                            explicit_step_->path()));
       c.self_contact = t.boolean("self_contact").value_or(false);
       c.margin = t.number("margin").value_or(0);
       c.line_contact = t.boolean("line_contact").value_or(true);

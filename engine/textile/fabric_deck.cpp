@@ -263,15 +263,19 @@ public:
         contact ? contact_formulation(*contact) : ContactFormulation::Spline;
     const InterfaceLawParameters law =
         contact ? contact_law(*contact, formulation) : default_law(formulation);
+    std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
     FrictionParameters friction;
     if (contact) {
       read_contact_friction(*contact, law, friction);
+      const char* key = contact->present("friction") ? "friction" : "static_friction";
       if (friction.active() && formulation == ContactFormulation::Surface)
-        contact->error(contact->present("friction") ? "friction" : "static_friction",
-                       "friction is available for spline contact only; surface contact is "
-                       "frictionless in this version");
+        contact->error(key, "friction is available for spline contact only; surface contact is "
+                            "frictionless in this version");
+      if (friction.active() && test && test->type == StepType::Explicit)
+        contact->error(key, "friction is not available on the explicit path in this version "
+                            "([biaxial] type = \"explicit\"): its energy balance does not close "
+                            "(docs/formulation.md, \"Friction\")");
     }
-    std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
     // A TexGen file is read, and its own problems reported, whatever the rest of the deck holds.
     std::optional<Fabric> built;
     if (texgen_)

@@ -118,6 +118,13 @@ TEST(FabricDeck, ContactFrictionReachesTheWarpWeftContact) {
   EXPECT_NE(e[0].find("contact.friction: friction is available for spline contact only"),
             std::string::npos)
       << e[0];
+  // Nor on the explicit path (its energy balance does not close).
+  const auto x =
+      errors_of(with("type = \"static\"", "type = \"explicit\"") + "[contact]\nfriction = 0.2\n");
+  ASSERT_EQ(x.size(), 1u) << joined(x);
+  EXPECT_NE(x[0].find("contact.friction: friction is not available on the explicit path"),
+            std::string::npos)
+      << x[0];
 }
 
 TEST(FabricDeck, ExamplesAreThePapersStudy) {
