@@ -1461,6 +1461,10 @@ private:
   void contact_law(const CheckedTable& t, InterfaceLawParameters& law) const {
     law.penalty = t.number("penalty").value_or(0);
     law.damping = t.number("damping").value_or(0);
+    // The contact stage receives no velocities: a damping would be read and never applied.
+    if (law.damping > 0)
+      t.error("damping", "contact damping is not applied in this version (the contact stage "
+                         "receives no velocities); remove the key or set it to 0");
     const std::optional<std::string> name =
         t.present("law") ? t.string("law") : std::optional<std::string>("linear");
     if (name == "linear") {

@@ -556,6 +556,9 @@ private:
     out.penalty = t.number("penalty").value_or(out.penalty);
     out.exponent = law == "power" ? t.number("exponent").value_or(1) : 1.0;
     out.damping = t.number("damping").value_or(0);
+    if (out.damping > 0)
+      t.error("damping", "contact damping is not applied in this version (the contact stage "
+                         "receives no velocities); remove the key or set it to 0");
     return out;
   }
 

@@ -31,8 +31,8 @@ std::string where(std::string_view deck, std::string_view needle, std::size_t oc
 std::vector<std::string> errors_of(std::string_view deck) {
   return test::errors_of(deck, "deck.toml");
 }
-using test::joined;
 using test::has;
+using test::joined;
 
 // A small valid deck; tests break one thing at a time.
 constexpr std::string_view kValid = R"(title = "two elements"
@@ -542,7 +542,7 @@ between = [["rod"], ["cross", "listed"]]
 law = "power"
 penalty = 2e6
 exponent = 1.5
-damping = 0.1
+damping = 0.0
 margin = 0.001
 
 [[contacts]]
@@ -573,7 +573,7 @@ TEST(DeckSplines, SplinesAndContactsResolveToIndices) {
   EXPECT_EQ(c.group_b, (std::vector<int>{1, 2}));
   EXPECT_DOUBLE_EQ(c.law.penalty, 2e6);
   EXPECT_DOUBLE_EQ(c.law.exponent, 1.5);
-  EXPECT_DOUBLE_EQ(c.law.damping, 0.1);
+  EXPECT_DOUBLE_EQ(c.law.damping, 0.0);
   EXPECT_DOUBLE_EQ(c.margin, 0.001);
   EXPECT_FALSE(c.self_contact);
 
@@ -804,6 +804,16 @@ TEST(DeckSplines, GroupsAreGivenOneWay) {
   EXPECT_EQ(errors[0], where(deck, "false") +
                            "contacts[1].self_contact: expected true with a single group of "
                            "splines (contact within it), found false");
+}
+
+TEST(DeckSplines, ContactDampingThatWouldNotBeAppliedIsAnError) {
+  const std::string deck = replace(kSplines, "damping = 0.0", "damping = 0.1");
+  const auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "0.1\nmargin") +
+                           "contacts[0].damping: contact damping is not applied in this version "
+                           "(the contact stage receives no velocities); remove the key or set it "
+                           "to 0");
 }
 
 TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
