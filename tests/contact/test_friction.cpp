@@ -1,5 +1,7 @@
 #include "contact/friction.hpp"
 
+#include "spline_pairs.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -16,33 +18,10 @@
 namespace yarnsim::contact {
 namespace {
 
+using namespace test;
+
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
-using Vec18 = Eigen::Matrix<double, 18, 1>;
-using Mat18 = Eigen::Matrix<double, 18, 18>;
-
-// Scales of the study (formulation.md §1), as in test_spline_contact.cpp: control points ~1 mm
-// apart, r = 0.284 mm, spline penalty 1.5e6 N/m, penetrations of microns.
-constexpr double kL = 1.1e-3;
-constexpr double kRadius = 2.840909e-4;
-constexpr double kEps = 1.5e6;
-
-/// One segment pair: control points of A and B (columns, metres) and their bases.
-struct Pair {
-  Matrix3d xa;
-  Matrix3d xb;
-  const SegmentBasis* ba;
-  const SegmentBasis* bb;
-};
-
-const SplineCurve& curve5() {
-  static const SplineCurve curve(5); // segments: first (double knot), interior, last
-  return curve;
-}
-
-double& dof(Pair& p, int i) {
-  return i < 9 ? p.xa(i % 3, i / 3) : p.xb(i % 3, (i - 9) / 3);
-}
 
 /// Normal contact (with its sensitivity) and friction of one evaluation.
 struct Evaluation {
@@ -69,73 +48,10 @@ Evaluation evaluate(const Pair& p, const InterfaceLaw& law, const CoulombFrictio
   return e;
 }
 
-// Random configurations are drawn from the test's own engine, one number per statement (see
-// test_spline_contact.cpp for why).
-
-/// A vector with components uniform in [-1, 1], drawn x, y, z in that order.
-Vector3d random_vector(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Vector3d v;
-  for (int i = 0; i < 3; ++i) {
-    v(i) = u(rng);
-  }
-  return v;
-}
-
-/// A rotation uniform over SO(3): a unit quaternion of four independent normal deviates.
-Eigen::Quaterniond random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  Eigen::Vector4d c;
-  for (int i = 0; i < 4; ++i) {
-    c(i) = n(rng);
-  }
-  return Eigen::Quaterniond(c.normalized());
-}
-
-/// A random curved pair crossing at an angle of at least 20 degrees, on segments `sa` and `sb`
-/// of a 5-point spline.
-Pair random_crossing(std::mt19937& rng, int sa, int sb) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Pair p;
-  p.ba = &curve5().segment(sa);
-  p.bb = &curve5().segment(sb);
-  const Eigen::Quaterniond q = random_rotation(rng);
-  const double angle = (20.0 + 140.0 * (0.5 + 0.5 * u(rng))) * M_PI / 180.0;
-  const Vector3d da = q * Vector3d::UnitX();
-  const Vector3d db = q * Vector3d(std::cos(angle), std::sin(angle), 0.0);
-  for (int k = 0; k < 3; ++k) {
-    p.xa.col(k) = (k - 1) * kL * da + 0.2 * kL * random_vector(rng);
-    p.xb.col(k) = (k - 1) * kL * db + 0.2 * kL * random_vector(rng);
-  }
-  p.xb.colwise() += Vector3d(kL, -kL, 2 * kL);
-  return p;
-}
-
-/// Translates B so that the contact points sit at local coordinates (ua, ub) and the centre
-/// distance is 2 r - delta; then checks that a cold start finds that point (strongly curved
-/// pairs can have another minimum). Returns false if either fails.
-bool place(Pair& p, double ua, double ub, double delta) {
-  SplineContactOptions wide;
-  wide.max_extension = 10.0;
-  bool placed = false;
-  for (int it = 0; it < 100 && !placed; ++it) {
-    const ProjectionResult pr = closest_point_projection(p.xa, *p.ba, p.xb, *p.bb, {}, wide);
-    if (pr.status == ProjectionStatus::NotConverged) {
-      return false;
-    }
-    const double ua0 = p.ba->local(pr.xi_A);
-    const double ub0 = p.bb->local(pr.xi_B);
-    const Vector3d ca = p.xa * p.ba->values_local(ua0);
-    const Vector3d cb = p.xb * p.bb->values_local(ub0);
-    if (std::abs(ua0 - ua) < 1e-13 && std::abs(ub0 - ub) < 1e-13) {
-      const Vector3d g = ca - cb;
-      p.xb.colwise() += (g.norm() - (2 * kRadius - delta)) * g.normalized();
-      placed = true;
-      break;
-    }
-    p.xb.colwise() += (p.xa * p.ba->values_local(ua) - ca) - (p.xb * p.bb->values_local(ub) - cb);
-  }
-  if (!placed) {
+/// place(), then checks that a cold start finds that point (strongly curved pairs can have
+/// another minimum). Returns false if either fails.
+bool place_checked(Pair& p, double ua, double ub, double delta) {
+  if (!place(p, ua, ub, delta)) {
     return false;
   }
   const ProjectionResult pr = closest_point_projection(p.xa, *p.ba, p.xb, *p.bb, {});
@@ -170,28 +86,12 @@ double tangent_error(const Pair& base, const InterfaceLaw& law, const CoulombFri
   EXPECT_EQ(e0.contact.status, ProjectionStatus::Converged);
   EXPECT_TRUE(e0.friction.active);
   const ProjectionStart warm{e0.contact.xi_A, e0.contact.xi_B, true};
-  const double h = 1e-6 * kL;
-  Mat18 fd;
-  for (int i = 0; i < 18; ++i) {
-    Vec18 res[2];
-    for (int side = 0; side < 2; ++side) {
-      const double step = side == 0 ? h : -h;
-      Pair p = base;
-      dof(p, i) += step;
-      PairRates moved;
-      if (rates != nullptr) {
-        moved = *rates;
-        double& v = i < 9 ? moved.velocity_A(i % 3, i / 3) : moved.velocity_B(i % 3, (i - 9) / 3);
-        v += rates->velocity_per_displacement * step;
-      }
-      const Evaluation e =
-          evaluate(p, law, friction, history, warm, rates != nullptr ? &moved : nullptr);
-      EXPECT_EQ(e.contact.status, ProjectionStatus::Converged);
-      EXPECT_EQ(e.friction.slipping, e0.friction.slipping);
-      res[side] = e.friction.residual;
-    }
-    fd.col(i) = (res[0] - res[1]) / (2 * h);
-  }
+  const Mat18 fd = central_differences(base, rates, [&](const Pair& p, const PairRates* moved) {
+    const Evaluation e = evaluate(p, law, friction, history, warm, moved);
+    EXPECT_EQ(e.contact.status, ProjectionStatus::Converged);
+    EXPECT_EQ(e.friction.slipping, e0.friction.slipping);
+    return e.friction.residual;
+  });
   return (fd - e0.friction.tangent).cwiseAbs().maxCoeff() /
          e0.friction.tangent.cwiseAbs().maxCoeff();
 }
@@ -221,16 +121,11 @@ TEST(SplineFriction, SensitivityMatchesCentralDifferencesAndLeavesTheContactAlon
     Pair p = random_crossing(rng, sa, sb);
     const double ua = u(rng);
     const double ub = u(rng);
-    if (!place(p, ua, ub, 4e-6)) {
+    if (!place_checked(p, ua, ub, 4e-6)) {
       continue;
     }
     ++tested;
-    PairRates rates;
-    for (int k = 0; k < 3; ++k) {
-      rates.velocity_A.col(k) = 0.01 * random_vector(rng);
-      rates.velocity_B.col(k) = 0.01 * random_vector(rng);
-    }
-    rates.velocity_per_displacement = 0.5 / (0.3 * 1e-4); // Newmark gamma / (beta dt)
+    const PairRates rates = random_rates(rng);
     const SplineContactOptions options;
     const SplineContactResult plain =
         spline_contact(p.xa, *p.ba, kRadius, p.xb, *p.bb, kRadius, {}, law, options, &rates);
@@ -254,8 +149,7 @@ TEST(SplineFriction, SensitivityMatchesCentralDifferencesAndLeavesTheContactAlon
         Pair q = p;
         dof(q, i) += step;
         PairRates moved = rates;
-        (i < 9 ? moved.velocity_A(i % 3, i / 3) : moved.velocity_B(i % 3, (i - 9) / 3)) +=
-            rates.velocity_per_displacement * step;
+        velocity(moved, i) += rates.velocity_per_displacement * step;
         const SplineContactResult rq =
             spline_contact(q.xa, *q.ba, kRadius, q.xb, *q.bb, kRadius, warm, law, options, &moved);
         xi_a[side] = rq.xi_A;
@@ -314,7 +208,7 @@ TEST(SplineFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
     const double ua = across ? side_a * (0.5 - 0.02 * unit(rng)) : 0.8 * unit(rng) - 0.4;
     const double ub = across ? side_b * (0.5 - 0.02 * unit(rng)) : 0.8 * unit(rng) - 0.4;
     const double delta = 1e-6 + 1e-5 * unit(rng);
-    if (!place(p, ua, ub, delta)) {
+    if (!place_checked(p, ua, ub, delta)) {
       continue;
     }
     // Anchor offsets (segments): across the knot, 0.03 to 0.1 beyond the contact point.
@@ -323,12 +217,7 @@ TEST(SplineFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
     const double mu_s = unequal ? 0.4 : 0.3;
     const double mu_k = 0.3;
     const double ratio = slip ? 1.1 + 4.0 * unit(rng) : 0.2 + 0.7 * unit(rng);
-    PairRates rates;
-    for (int k = 0; k < 3; ++k) {
-      rates.velocity_A.col(k) = 0.01 * random_vector(rng);
-      rates.velocity_B.col(k) = 0.01 * random_vector(rng);
-    }
-    rates.velocity_per_displacement = 0.5 / (0.3 * 1e-4); // Newmark gamma / (beta dt)
+    const PairRates rates = random_rates(rng);
     const PairRates* r = with_damping ? &rates : nullptr;
     const InterfaceLaw& law = with_damping      ? static_cast<const InterfaceLaw&>(damped)
                               : tested % 3 == 0 ? static_cast<const InterfaceLaw&>(power)
@@ -507,7 +396,7 @@ TEST(SplineFriction, RigidMotionOfAStuckPairRotatesTheForce) {
     Pair p = random_crossing(rng, sa, sb);
     const double ua = 0.8 * unit(rng) - 0.4;
     const double ub = 0.8 * unit(rng) - 0.4;
-    if (!place(p, ua, ub, 5e-6)) {
+    if (!place_checked(p, ua, ub, 5e-6)) {
       continue;
     }
     const SplineContactResult c =
@@ -572,7 +461,7 @@ TEST(SplineFriction, ReturnMappingPutsTheAnchorOnTheCone) {
     Pair p = random_crossing(rng, sa, sb);
     const double ua = 0.8 * unit(rng) - 0.4;
     const double ub = 0.8 * unit(rng) - 0.4;
-    if (!place(p, ua, ub, 1e-6 + 1e-5 * unit(rng))) {
+    if (!place_checked(p, ua, ub, 1e-6 + 1e-5 * unit(rng))) {
       continue;
     }
     const SplineContactResult c =

@@ -1,5 +1,7 @@
 #include "contact/spline_contact.hpp"
 
+#include "spline_pairs.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -14,112 +16,15 @@
 namespace yarnsim::contact {
 namespace {
 
+using namespace test;
+
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
-using Vec18 = Eigen::Matrix<double, 18, 1>;
-using Mat18 = Eigen::Matrix<double, 18, 18>;
-
-// Scales of the study (formulation.md §1): control points ~1 mm apart, r = 0.284 mm,
-// spline penalty 1.5e6 N/m, penetrations of microns.
-constexpr double kL = 1.1e-3;
-constexpr double kRadius = 2.840909e-4;
-constexpr double kEps = 1.5e6;
-
-/// One segment pair: control points of A and B (columns, metres) and their bases.
-struct Pair {
-  Matrix3d xa;
-  Matrix3d xb;
-  const SegmentBasis* ba;
-  const SegmentBasis* bb;
-  double ra = kRadius;
-  double rb = kRadius;
-};
-
-const SplineCurve& curve5() {
-  static const SplineCurve curve(5); // segments: first (double knot), interior, last
-  return curve;
-}
 
 SplineContactResult solve(const Pair& p, const InterfaceLaw& law, const ProjectionStart& start = {},
                           const SplineContactOptions& options = {},
                           const PairRates* rates = nullptr) {
   return spline_contact(p.xa, *p.ba, p.ra, p.xb, *p.bb, p.rb, start, law, options, rates);
-}
-
-double& dof(Pair& p, int i) {
-  return i < 9 ? p.xa(i % 3, i / 3) : p.xb(i % 3, (i - 9) / 3);
-}
-
-/// Translates B so that the contact points sit at local coordinates (ua, ub) and the centre
-/// distance is r_A + r_B - delta. Returns false if the projection fails on the way.
-bool place(Pair& p, double ua, double ub, double delta) {
-  SplineContactOptions wide;
-  wide.max_extension = 10.0;
-  for (int it = 0; it < 100; ++it) {
-    const ProjectionResult pr = closest_point_projection(p.xa, *p.ba, p.xb, *p.bb, {}, wide);
-    if (pr.status == ProjectionStatus::NotConverged) {
-      return false;
-    }
-    const double ua0 = p.ba->local(pr.xi_A);
-    const double ub0 = p.bb->local(pr.xi_B);
-    const Vector3d ca = p.xa * p.ba->values_local(ua0);
-    const Vector3d cb = p.xb * p.bb->values_local(ub0);
-    if (std::abs(ua0 - ua) < 1e-13 && std::abs(ub0 - ub) < 1e-13) {
-      const Vector3d g = ca - cb;
-      const double s = g.norm() - (p.ra + p.rb - delta);
-      p.xb.colwise() += s * g.normalized();
-      return true;
-    }
-    const Vector3d move =
-        (p.xa * p.ba->values_local(ua) - ca) - (p.xb * p.bb->values_local(ub) - cb);
-    p.xb.colwise() += move;
-  }
-  return false;
-}
-
-// Every random configuration is drawn from the test's own engine, one number per statement:
-// Eigen's Quaterniond::UnitRandom() draws from std::rand(), whose state depends on which tests
-// ran before (a --gtest_filter run saw other pairs than the full run), and the order in which
-// the arguments of one call are evaluated is unspecified (GCC and Clang differ).
-
-/// A vector with components uniform in [-1, 1], drawn x, y, z in that order.
-Vector3d random_vector(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Vector3d v;
-  for (int i = 0; i < 3; ++i) {
-    v(i) = u(rng);
-  }
-  return v;
-}
-
-/// A rotation uniform over SO(3): a unit quaternion of four independent normal deviates.
-Eigen::Quaterniond random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  Eigen::Vector4d c;
-  for (int i = 0; i < 4; ++i) {
-    c(i) = n(rng);
-  }
-  return Eigen::Quaterniond(c.normalized());
-}
-
-/// A random pair crossing at an angle of at least 20 degrees, curved, with random segments of
-/// a 5-point spline for A and B.
-Pair random_crossing(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  std::uniform_int_distribution<int> seg(0, 2);
-  Pair p;
-  p.ba = &curve5().segment(seg(rng));
-  p.bb = &curve5().segment(seg(rng));
-  const Eigen::Quaterniond q = random_rotation(rng);
-  const double angle = (20.0 + 140.0 * (0.5 + 0.5 * u(rng))) * M_PI / 180.0;
-  const Vector3d da = q * Vector3d::UnitX();
-  const Vector3d db = q * Vector3d(std::cos(angle), std::sin(angle), 0.0);
-  for (int k = 0; k < 3; ++k) {
-    p.xa.col(k) = (k - 1) * kL * da + 0.2 * kL * random_vector(rng);
-    p.xb.col(k) = (k - 1) * kL * db + 0.2 * kL * random_vector(rng);
-  }
-  p.xb.colwise() += Vector3d(kL, -kL, 2 * kL);
-  return p;
 }
 
 /// Max-norm relative error of the tangent against central differences of the residual.
@@ -129,27 +34,12 @@ double tangent_error(const Pair& base, const InterfaceLaw& law, const PairRates*
   EXPECT_EQ(r0.status, ProjectionStatus::Converged);
   EXPECT_TRUE(r0.active);
   const ProjectionStart warm{r0.xi_A, r0.xi_B, true};
-  const double h = 1e-6 * kL;
-  Mat18 fd;
-  for (int i = 0; i < 18; ++i) {
-    Vec18 res[2];
-    for (int side = 0; side < 2; ++side) {
-      const double step = side == 0 ? h : -h;
-      Pair p = base;
-      dof(p, i) += step;
-      PairRates moved;
-      if (rates != nullptr) {
-        moved = *rates;
-        double& v = i < 9 ? moved.velocity_A(i % 3, i / 3) : moved.velocity_B(i % 3, (i - 9) / 3);
-        v += rates->velocity_per_displacement * step;
-      }
-      const SplineContactResult r = solve(p, law, warm, {}, rates != nullptr ? &moved : nullptr);
-      EXPECT_EQ(r.status, ProjectionStatus::Converged);
-      EXPECT_EQ(r.degenerate, r0.degenerate);
-      res[side] = r.residual;
-    }
-    fd.col(i) = (res[0] - res[1]) / (2 * h);
-  }
+  const Mat18 fd = central_differences(base, rates, [&](const Pair& p, const PairRates* moved) {
+    const SplineContactResult r = solve(p, law, warm, {}, moved);
+    EXPECT_EQ(r.status, ProjectionStatus::Converged);
+    EXPECT_EQ(r.degenerate, r0.degenerate);
+    return r.residual;
+  });
   return (fd - r0.tangent).cwiseAbs().maxCoeff() / r0.tangent.cwiseAbs().maxCoeff();
 }
 
@@ -375,12 +265,7 @@ TEST(SplineContact, DampingTangentIncludesTheVelocityCoupling) {
       continue;
     }
     ++tested;
-    PairRates rates;
-    for (int k = 0; k < 3; ++k) {
-      rates.velocity_A.col(k) = 0.01 * random_vector(rng);
-      rates.velocity_B.col(k) = 0.01 * random_vector(rng);
-    }
-    rates.velocity_per_displacement = 0.5 / (0.3 * 1e-4); // Newmark gamma / (beta dt)
+    const PairRates rates = random_rates(rng);
     const SplineContactResult r = solve(p, law, {}, {}, &rates);
     ASSERT_TRUE(r.active);
     ASSERT_GT(r.force, 0.0);
