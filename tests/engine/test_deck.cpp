@@ -865,6 +865,13 @@ TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
   EXPECT_TRUE(has(errors, "contacts[0].tangential_penalty: 'tangential_penalty' applies only with "
                           "friction"))
       << joined(errors);
+  // Not on the explicit path (its energy balance does not close): said at the key.
+  errors = errors_of(replace(replace(kSplines, "margin = 0.001\n",
+                                     "margin = 0.001\nfriction = 0.2\ntangential_penalty = 1e5\n"),
+                             "type = \"static\"", "type = \"explicit\""));
+  EXPECT_TRUE(has(errors, "contacts[0].friction: friction is not available on the explicit path "
+                          "in this version (steps[0] is explicit)"))
+      << joined(errors);
   errors = errors_with("friction = -0.1\n");
   ASSERT_GE(errors.size(), 1u);
   EXPECT_TRUE(has(errors, "contacts[0].friction: expected a number >= 0, found -0.1"))
