@@ -61,10 +61,22 @@ std::string check_report(const Model& model) {
                      model.surfaces.size(), model.monitors.size());
   out += fmt::format("contact definitions: {}\n",
                      model.spline_contacts.size() + model.surface_contacts.size());
-  for (const SplineContactDefinition& c : model.spline_contacts)
-    out += fmt::format("  spline contact '{}': {} x {} splines{}, {}, margin {:.6g} mm\n", c.name,
+  for (const SplineContactDefinition& c : model.spline_contacts) {
+    const FrictionParameters& f = c.friction;
+    const std::string friction =
+        !f.active() ? std::string(", frictionless")
+        : f.mu_static == f.mu_kinetic
+            ? fmt::format(", friction mu = {:g}, tangential penalty {:.6g} N/m (the stick "
+                          "displacement mu f_n / eps_t is {:.3g} mm per N of normal force)",
+                          f.mu_static, f.tangential_penalty,
+                          1e3 * f.mu_static / f.tangential_penalty)
+            : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, tangential penalty {:.6g} N/m",
+                          f.mu_static, f.mu_kinetic, f.tangential_penalty);
+    out += fmt::format("  spline contact '{}': {} x {} splines{}, {}, margin {:.6g} mm{}\n", c.name,
                        c.group_a.size(), c.self_contact ? c.group_a.size() : c.group_b.size(),
-                       c.self_contact ? " (self contact)" : "", law_text(c.law), 1e3 * c.margin);
+                       c.self_contact ? " (self contact)" : "", law_text(c.law), 1e3 * c.margin,
+                       friction);
+  }
   for (const SurfaceContactDefinition& c : model.surface_contacts)
     out += fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm\n", c.name,
                        c.group_a.size(), c.group_b.size(), law_text(c.law), 1e3 * c.margin);
