@@ -64,6 +64,7 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   out.force.setZero();
   out.slip_function = 0.0;
   out.slip_increment = 0.0;
+  out.dissipation = 0.0;
   out.history = history;
   out.residual.setZero();
   out.tangent.setZero();
@@ -119,6 +120,7 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
     out.history.xi_A = contact.xi_A - (contact.xi_A - history.xi_A) * scale;
     out.history.xi_B = contact.xi_B - (contact.xi_B - history.xi_B) * scale;
     out.slip_increment = gap_norm - mu * f_n / eps_t;
+    out.dissipation = mu * f_n * out.slip_increment;
   }
 
   // Tangential damping on the relative velocity of the contact points at fixed parameters.

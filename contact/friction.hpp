@@ -120,6 +120,8 @@ struct SplineFrictionResult {
   Eigen::Vector3d force = Eigen::Vector3d::Zero();
   double slip_function = 0.0;  ///< trial phi = eps_t |g_t| - mu f_n, N
   double slip_increment = 0.0; ///< |g_t| - mu f_n / eps_t when slipping, else 0, metres
+  /// Energy the slip dissipates, the force on the cone times the slip: mu f_n slip_increment, J.
+  double dissipation = 0.0;
   /// The history to commit if this iterate is accepted: the anchor (kept in stick, returned
   /// onto the cone in slip) and stuck = !slipping.
   FrictionHistory history;

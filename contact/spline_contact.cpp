@@ -463,11 +463,23 @@ ProjectionResult closest_point_projection(const Matrix3d& control_A, const Segme
 
 namespace {
 
+/// (hess psi) v for the damping's d(dp/dt)/dx, hess psi = (kron(w w^T, I) - D^T H^-1 D - grad psi
+/// grad psi^T) / |g| (the file's header): ha, hb are the rows of H^-1 D, da, db those of D.
+Vec18 hessian_psi_times(const Vec6& w, const Vec18& velocity, const Vec18& ha, const Vec18& hb,
+                        const Vec18& da, const Vec18& db, const Vec18& grad_psi, double dist) {
+  Vector3d wv = Vector3d::Zero();
+  for (int k = 0; k < 6; ++k) {
+    wv += w(k) * velocity.segment<3>(3 * k);
+  }
+  return (kron(w, wv) - ha * da.dot(velocity) - hb * db.dot(velocity) -
+          grad_psi * grad_psi.dot(velocity)) /
+         dist;
+}
+
 /// dxi/dx = -H^-1 D and df/dx of a regular point contact (SplineContactSensitivity), from the
 /// quantities of fill_contact: the positions' weights w, grad psi = d|g|/dx, the 18 velocities,
-/// |g|, the law's f_p and f_pdot and dv/dx (`vpd`). Repeats the few lines of the tangent it
-/// needs rather than sharing them, so that the contact's own results are computed exactly as
-/// without it.
+/// |g|, the law's f_p and f_pdot and dv/dx (`vpd`). Computes H^-1 D apart from the tangent, so
+/// that the contact's own results are computed exactly as without it.
 void write_sensitivity(const Local& e, const SegmentBasis& basis_A, const SegmentBasis& basis_B,
                        const Vec6& w, const Vec18& grad_psi, const Vec18& velocity, double dist,
                        double fp, double fv, double vpd, SplineContactSensitivity& out) {
@@ -484,14 +496,8 @@ void write_sensitivity(const Local& e, const SegmentBasis& basis_A, const Segmen
   out.parameters.row(1) = -basis_B.length() * hb.transpose();
   out.force = -fp * grad_psi;
   if (fv != 0.0) {
-    // d(dp/dt)/dx = -(hess psi v + dv/dx grad psi), hess psi as in fill_contact.
-    Vector3d wv = Vector3d::Zero();
-    for (int k = 0; k < 6; ++k) {
-      wv += w(k) * velocity.segment<3>(3 * k);
-    }
-    const Vec18 hess_psi_v = (kron(w, wv) - ha * da.dot(velocity) - hb * db.dot(velocity) -
-                              grad_psi * grad_psi.dot(velocity)) /
-                             dist;
+    // d(dp/dt)/dx = -(hess psi v + dv/dx grad psi).
+    const Vec18 hess_psi_v = hessian_psi_times(w, velocity, ha, hb, da, db, grad_psi, dist);
     out.force -= fv * (hess_psi_v + vpd * grad_psi);
   }
   out.valid = true;
@@ -610,13 +616,7 @@ bool fill_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
       }
     }
     if (fv != 0.0) {
-      Vector3d wv = Vector3d::Zero();
-      for (int k = 0; k < 6; ++k) {
-        wv += w(k) * velocity.segment<3>(3 * k);
-      }
-      const Vec18 hess_psi_v = (kron(w, wv) - ha * da.dot(velocity) - hb * db.dot(velocity) -
-                                grad_psi * grad_psi.dot(velocity)) /
-                               dist;
+      const Vec18 hess_psi_v = hessian_psi_times(w, velocity, ha, hb, da, db, grad_psi, dist);
       const Vec18 grad_pdot = -(hess_psi_v + rates->velocity_per_displacement * grad_psi);
       out.tangent.noalias() -= (fv * grad_psi) * grad_pdot.transpose();
     }

@@ -105,6 +105,16 @@ std::array<int, 6> SplineContactSet::nodes_of(const Definition& d,
   return {a[i], a[i + 1], a[i + 2], b[j], b[j + 1], b[j + 2]};
 }
 
+void SplineContactSet::control_points(const Definition& d, const broadphase::CandidatePair& p,
+                                      const Eigen::Matrix3Xd& x, Eigen::Matrix3d& A,
+                                      Eigen::Matrix3d& B) const {
+  const std::array<int, 6> n = nodes_of(d, p);
+  for (int c = 0; c < 3; ++c) {
+    A.col(c) = x.col(n[c]);
+    B.col(c) = x.col(n[3 + c]);
+  }
+}
+
 bool SplineContactSet::update_candidates(const State& state) {
   const Eigen::Matrix3Xd& x = state.x;
   bool changed = work_.empty() && candidates_version_ == 0;
@@ -151,12 +161,8 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
         for (std::size_t w = range.begin(); w != range.end(); ++w) {
           Work& item = work_[w];
           const Definition& d = *definitions_[item.definition];
-          const std::array<int, 6> n = nodes_of(d, item.pair);
           Eigen::Matrix3d A, B;
-          for (int c = 0; c < 3; ++c) {
-            A.col(c) = x.col(n[c]);
-            B.col(c) = x.col(n[3 + c]);
-          }
+          control_points(d, item.pair, x, A, B);
           contact::ProjectionStart start;
           if (item.warm >= 0)
             start = {committed_[item.warm].xi_A, committed_[item.warm].xi_B, true};
@@ -195,12 +201,8 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
             f.active = false;
             if (!d.friction || !item.result.active || !sensitivity_[w].valid || item.first_touch)
               continue;
-            const std::array<int, 6> n = nodes_of(d, item.pair);
             Eigen::Matrix3d A, B;
-            for (int c = 0; c < 3; ++c) {
-              A.col(c) = x.col(n[c]);
-              B.col(c) = x.col(n[3 + c]);
-            }
+            control_points(d, item.pair, x, A, B);
             const auto& sa = curves_[d.spline[item.pair.first]].segment(d.segment[item.pair.first]);
             const auto& sb =
                 curves_[d.spline[item.pair.second]].segment(d.segment[item.pair.second]);
@@ -356,8 +358,7 @@ void SplineContactSet::commit() {
       warm.anchor_B = f.history.xi_B;
       warm.friction = f.slipping ? 2 : 1;
       warm.slip = item.slip + f.slip_increment;
-      // The plastic work of the slip: the force on the cone times the slip, mu f_n |dg_s|.
-      dissipated_ += f.mu * r.force * f.slip_increment;
+      dissipated_ += f.dissipation;
     } else if (any_friction_ && item.first_touch) {
       // Closed in this increment: anchored where it is, stuck.
       warm.anchor_A = item.history.xi_A;
@@ -505,7 +506,7 @@ void SplineContactSet::summarise() {
     // The tangential spring's elastic energy, |f|^2 / (2 eps_t), is stored with the normal one.
     summary_.potential +=
         f.force.squaredNorm() / (2.0 * definitions_[work_[w].definition]->friction->eps_t());
-    summary_.dissipation += f.mu * work_[w].result.force * f.slip_increment;
+    summary_.dissipation += f.dissipation;
   }
 }
 

@@ -88,7 +88,7 @@ private:
     /// Friction of an active point contact: the history this evaluation holds fixed (its own
     /// committed one, one handed over from a neighbouring pair, or a first touch) and the slip
     /// accumulated before this increment, m.
-    contact::FrictionHistory history;
+    contact::FrictionHistory history{};
     double slip = 0;
     /// An active point contact with friction and no history: it closed in this increment. It
     /// carries no friction until the increment converges, which anchors it where it closed (a
@@ -97,6 +97,9 @@ private:
   };
 
   std::array<int, 6> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
+  /// The pair's control points at positions x (3 x n_nodes, m): A's and B's three, as columns.
+  void control_points(const Definition& d, const broadphase::CandidatePair& p,
+                      const Eigen::Matrix3Xd& x, Eigen::Matrix3d& A, Eigen::Matrix3d& B) const;
   /// summary_ from work_.
   void summarise();
   /// Gives each active frictional point contact the history it holds fixed (serial: a history

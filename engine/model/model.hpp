@@ -171,8 +171,8 @@ struct SplineContactDefinition {
   std::string name;
   std::vector<int> group_a, group_b;
   InterfaceLawParameters law;
-  bool self_contact = false;   ///< pairs within one spline (beyond its neighbours)
-  double margin = 0;           ///< m, broad-phase box inflation beyond the radius; 0: the radius
+  bool self_contact = false; ///< pairs within one spline (beyond its neighbours)
+  double margin = 0;         ///< m, broad-phase box inflation beyond the radius; 0: the radius
   /// All-angle contact (contact/line_contact.hpp): line contact below line_angle, point contact
   /// above point_angle, blended between; false: point contact at every angle (with its
   /// degenerate near-parallel path).
@@ -185,7 +185,7 @@ struct SplineContactDefinition {
   int gauss_points = 5; ///< per slave segment, 1 to 10
   /// Coulomb friction, at point contacts (crossing yarns) only: not on the line contact or the
   /// degenerate path of nearly parallel yarns.
-  FrictionParameters friction;
+  FrictionParameters friction{};
 };
 
 /// A contact surface for the surface-to-surface contact (formulation.md §6, the paper's eqs. 1-3):

@@ -348,7 +348,7 @@ public:
           o.contacts.gap(k) = points[k].gap;
           o.contacts.force(k) = points[k].force;
         }
-        if (has_friction(model_)) {
+        if (friction_) {
           o.contacts.tangential_force.resize(3, np);
           o.contacts.stick.resize(np);
           o.contacts.slip.resize(np);

@@ -839,42 +839,34 @@ TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
   EXPECT_DOUBLE_EQ(f.tangential_penalty,
                    read_deck_string(linear, "deck.toml").spline_contacts[0].law.penalty);
 
-  const auto errors_with = [](const std::string& keys) {
-    return errors_of(replace(kSplines, "margin = 0.001\n", "margin = 0.001\n" + keys));
+  // The contact with `keys` added reports one problem, holding `text`.
+  const auto expect_one_error = [](const std::string& keys, std::string_view text) {
+    const auto errors = errors_of(replace(kSplines, "margin = 0.001\n", "margin = 0.001\n" + keys));
+    EXPECT_EQ(errors.size(), 1u) << joined(errors);
+    EXPECT_TRUE(has(errors, text)) << keys << joined(errors);
   };
-  auto errors = errors_with("friction = 0.2\n");
-  ASSERT_EQ(errors.size(), 1u) << joined(errors);
-  EXPECT_TRUE(has(errors, "contacts[0]: missing required key 'tangential_penalty' (a number > 0 "
-                          "(N/m), with friction on a power law"))
-      << joined(errors);
-  errors = errors_with("friction = 0.2\nstatic_friction = 0.3\n");
-  ASSERT_EQ(errors.size(), 1u) << joined(errors);
-  EXPECT_TRUE(has(errors, "contacts[0].static_friction: give either 'friction' (one coefficient) "
-                          "or 'static_friction' and 'kinetic_friction', not both"))
-      << joined(errors);
-  errors = errors_with("static_friction = 0.2\nkinetic_friction = 0.3\ntangential_penalty = 1e5\n");
-  ASSERT_EQ(errors.size(), 1u) << joined(errors);
-  EXPECT_TRUE(has(errors, "contacts[0].kinetic_friction: expected kinetic_friction <= "
-                          "static_friction (0.2), found 0.3"))
-      << joined(errors);
-  errors = errors_with("static_friction = 0.2\ntangential_penalty = 1e5\n");
-  ASSERT_EQ(errors.size(), 1u) << joined(errors);
-  EXPECT_TRUE(has(errors, "missing required key 'kinetic_friction'")) << joined(errors);
-  errors = errors_with("tangential_penalty = 1e5\n");
-  ASSERT_EQ(errors.size(), 1u) << joined(errors);
-  EXPECT_TRUE(has(errors, "contacts[0].tangential_penalty: 'tangential_penalty' applies only with "
-                          "friction"))
-      << joined(errors);
+  expect_one_error("friction = 0.2\n",
+                   "contacts[0]: missing required key 'tangential_penalty' (a number > 0 (N/m), "
+                   "with friction on a power law");
+  expect_one_error("friction = 0.2\nstatic_friction = 0.3\n",
+                   "contacts[0].static_friction: give either 'friction' (one coefficient) or "
+                   "'static_friction' and 'kinetic_friction', not both");
+  expect_one_error("static_friction = 0.2\nkinetic_friction = 0.3\ntangential_penalty = 1e5\n",
+                   "contacts[0].kinetic_friction: expected kinetic_friction <= static_friction "
+                   "(0.2), found 0.3");
+  expect_one_error("static_friction = 0.2\ntangential_penalty = 1e5\n",
+                   "missing required key 'kinetic_friction'");
+  expect_one_error("tangential_penalty = 1e5\n",
+                   "contacts[0].tangential_penalty: 'tangential_penalty' applies only with "
+                   "friction");
+  expect_one_error("friction = -0.1\n", "contacts[0].friction: expected a number >= 0, found -0.1");
   // Not on the explicit path (its energy balance does not close): said at the key.
-  errors = errors_of(replace(replace(kSplines, "margin = 0.001\n",
-                                     "margin = 0.001\nfriction = 0.2\ntangential_penalty = 1e5\n"),
-                             "type = \"static\"", "type = \"explicit\""));
+  const auto errors =
+      errors_of(replace(replace(kSplines, "margin = 0.001\n",
+                                "margin = 0.001\nfriction = 0.2\ntangential_penalty = 1e5\n"),
+                        "type = \"static\"", "type = \"explicit\""));
   EXPECT_TRUE(has(errors, "contacts[0].friction: friction is not available on the explicit path "
                           "in this version (steps[0] is explicit)"))
-      << joined(errors);
-  errors = errors_with("friction = -0.1\n");
-  ASSERT_GE(errors.size(), 1u);
-  EXPECT_TRUE(has(errors, "contacts[0].friction: expected a number >= 0, found -0.1"))
       << joined(errors);
 }
 

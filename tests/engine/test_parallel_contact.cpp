@@ -347,69 +347,62 @@ void expect_same_bits(const Bits& a, std::size_t from, const Bits& b) {
   }
 }
 
+/// The run of `m` on `threads` threads.
+Bits run_on(const Model& m, int threads) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  Bits bits;
+  Simulation(m).run(&bits);
+  return bits;
+}
+
+/// The run of `m` from `checkpoint`, written to checkpoint.h5 and read back.
+Bits run_from_file(const Model& m, const SimulationCheckpoint& checkpoint,
+                   const std::string& name) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() /
+      ("yarnsim_" + name + "_checkpoint_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  output::write_checkpoint(dir, checkpoint, {1, {}, name});
+  const output::StoredCheckpoint stored = output::read_checkpoint(dir);
+  std::filesystem::remove_all(dir);
+  Bits bits;
+  Simulation(m, {}, stored.simulation).run(&bits);
+  return bits;
+}
+
 TEST(ParallelContact, TheDoubleHelixIsBitwiseTheSameOnOneAndTwoThreadsAndAfterARestart) {
   // The first 0.3 s (a tenth of the turn to 0.3 of it: line contact along most of the strands).
   Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "double-helix.toml");
   m.steps.back().end_time = 0.3;
-  Bits one, two;
-  {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-    Simulation(m).run(&one);
-  }
-  {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
-    Simulation(m).run(&two);
-  }
+  const Bits one = run_on(m, 1);
   ASSERT_GT(one.force.back(), 0.0);
-  expect_same_bits(one, 0, two);
+  expect_same_bits(one, 0, run_on(m, 2));
   // Restarted from an increment's checkpoint in memory and through the file.
   const std::size_t k = one.x.size() / 2;
   Bits resumed;
   Simulation(m, {}, one.checkpoints[k]).run(&resumed);
   expect_same_bits(one, k + 1, resumed);
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("yarnsim_helix_checkpoint_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  output::write_checkpoint(dir, one.checkpoints[k], {1, {}, "helix"});
-  const output::StoredCheckpoint stored = output::read_checkpoint(dir);
-  std::filesystem::remove_all(dir);
-  Bits from_file;
-  Simulation(m, {}, stored.simulation).run(&from_file);
-  expect_same_bits(one, k + 1, from_file);
+  expect_same_bits(one, k + 1, run_from_file(m, one.checkpoints[k], "helix"));
 }
 
 TEST(ParallelContact, FrictionIsBitwiseTheSameOnOneAndTwoThreadsAndAfterARestart) {
-  // The paper's k = 1 fabric with mu = 0.2 at the crossings, to t = 0.4 s: the crossings close
-  // from about t = 0.1 s on and some of them slip (the yarns straighten under them).
-  Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "biaxial-k1.toml");
+  // The paper's k = 1 fabric with mu = 0.2 at the crossings (examples/biaxial-k1-friction.toml),
+  // to t = 0.4 s: the crossings close from about t = 0.1 s on and some of them slip (the yarns
+  // straighten under them).
+  Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" /
+                      "biaxial-k1-friction.toml");
   m.steps.back().end_time = 0.4;
-  m.spline_contacts[0].friction = {0.2, 0.2, m.spline_contacts[0].law.penalty};
-  Bits one, two;
-  {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-    Simulation(m).run(&one);
-  }
-  {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
-    Simulation(m).run(&two);
-  }
+  ASSERT_TRUE(m.spline_contacts[0].friction.active());
+  const Bits one = run_on(m, 1);
   ASSERT_GT(one.force.back(), 0.0);
   ASSERT_GT(one.dissipation.back(), 0.0) << "no slip: the test would not exercise the history";
-  expect_same_bits(one, 0, two);
+  expect_same_bits(one, 0, run_on(m, 2));
   // Restarted through the checkpoint file from an increment with points in slip.
   std::size_t k = one.x.size() / 2;
   while (k + 2 < one.x.size() && one.slipping[k] == 0)
     ++k;
   ASSERT_GT(one.slipping[k], 0);
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("yarnsim_friction_checkpoint_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  output::write_checkpoint(dir, one.checkpoints[k], {1, {}, "friction"});
-  const output::StoredCheckpoint stored = output::read_checkpoint(dir);
-  std::filesystem::remove_all(dir);
-  Bits from_file;
-  Simulation(m, {}, stored.simulation).run(&from_file);
-  expect_same_bits(one, k + 1, from_file);
+  expect_same_bits(one, k + 1, run_from_file(m, one.checkpoints[k], "friction"));
 }
 
 } // namespace
