@@ -93,11 +93,16 @@ struct FrictionHistory {
   double xi_A = 0.0; ///< global parameter on curve A of the material point where it stuck
   double xi_B = 0.0; ///< the same on curve B
   bool stuck = true; ///< stuck in the last committed state: mu_s applies, else mu_k
+  /// Torsional friction (torsional_friction.hpp): the anchor crossing angle, rad, and whether
+  /// the crossing's twist stuck in the last committed state.
+  double twist = 0.0;
+  bool twist_stuck = true;
 };
 
-/// The history of a contact point that has just closed: anchored where it touched, stuck.
+/// The history of a contact point that has just closed: anchored where it touched, stuck (the
+/// twist anchor, where torsional friction applies, is set by the caller: crossing_angle).
 inline FrictionHistory first_touch(const SplineContactResult& contact) {
-  return {contact.xi_A, contact.xi_B, true};
+  return {contact.xi_A, contact.xi_B, true, 0.0, true};
 }
 
 /// Controls of the friction kernel.

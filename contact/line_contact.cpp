@@ -1,6 +1,6 @@
 #include "contact/line_contact.hpp"
 
-#include "contact/second_order_jet.hpp"
+#include "contact/projection_jet.hpp"
 
 #include <Eigen/Geometry>
 
@@ -11,11 +11,9 @@
 #include <numbers>
 
 // Derivatives. A Gauss point's projection v(x) onto B and the closest points (u_A, u_B)(x) of
-// the point contact are implicit functions of the positions x. Their first and second
-// derivatives at x0 are those of two Newton steps started at the converged value c0 = c(x0)
-// (held fixed) and carried out on second-order jets of x: with e_k the error after k steps,
-// e_0 = O(|dx|), e_1 = O(e_0^2), e_2 = O(|dx|^4), so the two-step map agrees with c(x) to second
-// order at x0 (to the projection's tolerance). Everything after that is explicit.
+// the point contact are implicit functions of the positions x, differentiated to second order
+// by two Newton steps on jets from their converged values (projection_jet.hpp; for v, the same
+// two steps on B's projection alone, below). Everything after that is explicit.
 
 namespace yarnsim::contact {
 
@@ -142,19 +140,6 @@ bool owns_projection(const Matrix3d& x, const SegmentBasis& b, double u, const V
   return b.owns(b.global(u));
 }
 
-template <int H>
-Jet3T<H> jet_point(const Matrix3d& x, const SegmentBasis& b, int first, const JetT<H>& u) {
-  return curve_jet(x, first, u, b.values_local(u.v), b.first_local(u.v), b.second_local());
-}
-template <int H>
-Jet3T<H> jet_tangent(const Matrix3d& x, const SegmentBasis& b, int first, const JetT<H>& u) {
-  return curve_jet(x, first, u, b.first_local(u.v), b.second_local(), Vector3d::Zero());
-}
-template <int H>
-Jet3T<H> jet_curvature(const Matrix3d& x, const SegmentBasis& b, int first, const JetT<H>& u) {
-  return curve_jet(x, first, u, b.second_local(), Vector3d::Zero(), Vector3d::Zero());
-}
-
 /// Squared sine of the angle between t1 and t2.
 template <int H>
 JetT<H> sine2_of(const Jet3T<H>& t1, const Jet3T<H>& t2) {
@@ -210,24 +195,8 @@ template <int H>
 JetT<H> point_share_jet(const Matrix3d& control_A, const SegmentBasis& basis_A, double ua,
                         const Matrix3d& control_B, const SegmentBasis& basis_B, double ub,
                         const AllAngleOptions& all_angle) {
-  using J = JetT<H>;
-  J jua(ua), jub(ub);
-  for (int step = 0; step < 2; ++step) {
-    const Jet3T<H> g =
-        jet_point(control_A, basis_A, 0, jua) - jet_point(control_B, basis_B, 3, jub);
-    const Jet3T<H> ta = jet_tangent(control_A, basis_A, 0, jua);
-    const Jet3T<H> tb = jet_tangent(control_B, basis_B, 3, jub);
-    const J r0 = dot(ta, g);
-    const J r1 = -dot(tb, g);
-    const J h00 = dot(ta, ta) + dot(jet_curvature(control_A, basis_A, 0, jua), g);
-    const J h01 = -dot(ta, tb);
-    const J h11 = dot(tb, tb) - dot(jet_curvature(control_B, basis_B, 3, jub), g);
-    const J inv = reciprocal(h00 * h11 - h01 * h01);
-    const J da = inv * (h11 * r0 - h01 * r1);
-    const J db = inv * (h00 * r1 - h01 * r0);
-    jua = jua - da;
-    jub = jub - db;
-  }
+  JetT<H> jua, jub;
+  closest_point_jets(control_A, basis_A, ua, control_B, basis_B, ub, jua, jub);
   return share_jet(
       sine2_of(jet_tangent(control_A, basis_A, 0, jua), jet_tangent(control_B, basis_B, 3, jub)),
       all_angle);

@@ -89,6 +89,9 @@ ContactSummary ContactStage::summary() const {
     out.stick += s.stick;
     out.slip += s.slip;
     out.tangential_force += s.tangential_force;
+    out.twist_stick += s.twist_stick;
+    out.twist_slip += s.twist_slip;
+    out.torque += s.torque;
     out.dissipation += s.dissipation;
     out.min_gap = std::min(out.min_gap, s.min_gap);
     out.active_set = out.active_set * 0x9e3779b97f4a7c15ull + s.active_set;

@@ -34,6 +34,12 @@ struct ContactPoint {
   Eigen::Vector3d tangential_force = Eigen::Vector3d::Zero();
   int friction = 0;
   double slip = 0;
+  /// Torsional friction (contacts that have it): the friction torque about the normal, N m
+  /// (contact/torsional_friction.hpp, signed as the elastic twist); the state, 0 none, 1 stick,
+  /// 2 slip; the twist slip accumulated since the point closed, rad.
+  double torque = 0;
+  int twist = 0;
+  double twist_slip = 0;
   // What the point lies on: the definition and the two segments of its pair (A, B).
   bool surface = false; ///< a surface contact (Model::surface_contacts), else a spline contact
   int definition = -1;  ///< index into Model::spline_contacts or Model::surface_contacts
@@ -55,6 +61,9 @@ struct ContactSummary {
   int stick = 0;               ///< active points with friction in stick
   int slip = 0;                ///< active points with friction in slip
   double tangential_force = 0; ///< sum of the friction forces' magnitudes, N
+  int twist_stick = 0;         ///< crossings with torsional friction whose twist sticks
+  int twist_slip = 0;          ///< crossings with torsional friction whose twist slips
+  double torque = 0;           ///< sum of the friction torques' magnitudes, N m
   /// Energy dissipated by friction from the start up to this evaluation (the completed
   /// increments' and this iterate's slips), J.
   double dissipation = 0;

@@ -21,6 +21,7 @@ struct SplineContactSet::Definition {
   std::vector<int> spline;  ///< per segment id
   std::vector<int> segment; ///< per segment id: index along the spline
   std::vector<double> radius;
+  std::vector<double> width; ///< per segment id: the spline's width (torsional friction), m
   std::unique_ptr<broadphase::CandidateSearch> search;
   std::shared_ptr<const contact::InterfaceLaw> law;
   std::vector<Eigen::AlignedBox3d> boxes;
@@ -29,6 +30,16 @@ struct SplineContactSet::Definition {
   contact::AllAngleOptions all_angle;        ///< line_scale set per pair
   double line_per_point = 0; ///< line_penalty / penalty, 1/m; 0: 1 / (r_A + r_B) per pair
   std::optional<contact::CoulombFriction> friction; ///< none: frictionless
+  bool torsional = false;       ///< torsional friction at the crossings (with `friction`)
+  double torsional_radius = 0;  ///< rho, m; 0: from the pair's widths
+  double torsional_penalty = 0; ///< k_r, N m/rad; 0: eps_t rho^2
+
+  /// The torsional law of a pair of splines of widths wa, wb (m): FrictionParameters' defaults.
+  contact::TorsionalFriction torsion(double wa, double wb) const {
+    const double rho = torsional_radius > 0 ? torsional_radius : contact::footprint_radius(wa, wb);
+    const double k_r = torsional_penalty > 0 ? torsional_penalty : friction->eps_t() * rho * rho;
+    return {friction->mu_s(), friction->mu_k(), k_r, rho};
+  }
 };
 
 std::shared_ptr<const contact::InterfaceLaw> make_interface_law(const InterfaceLawParameters& p) {
@@ -55,6 +66,8 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
           d->spline.push_back(s);
           d->segment.push_back(i);
           d->radius.push_back(model.splines[s].radius);
+          d->width.push_back(model.splines[s].width > 0 ? model.splines[s].width
+                                                        : 2 * model.splines[s].radius);
           info.push_back({s, i, group});
           if (def.margin <= 0)
             margin = std::max(margin, model.splines[s].radius);
@@ -89,6 +102,18 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
         throw std::invalid_argument(fmt::format("contact '{}': {}", def.name, e.what()));
       }
       any_friction_ = true;
+      const FrictionParameters& f = def.friction;
+      if (f.torsional) {
+        if (!(std::isfinite(f.torsional_radius) && f.torsional_radius >= 0 &&
+              std::isfinite(f.torsional_penalty) && f.torsional_penalty >= 0))
+          throw std::invalid_argument(fmt::format(
+              "contact '{}': expected torsional_radius >= 0 m and torsional_penalty >= 0 N m/rad "
+              "(0: the defaults), found {} and {}",
+              def.name, f.torsional_radius, f.torsional_penalty));
+        d->torsional = true;
+        d->torsional_radius = f.torsional_radius;
+        d->torsional_penalty = f.torsional_penalty;
+      }
     }
     d->boxes.resize(d->spline.size());
     definitions_.push_back(std::move(d));
@@ -154,6 +179,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
   if (any_friction_) {
     sensitivity_.resize(work_.size());
     friction_.resize(work_.size());
+    twist_.resize(work_.size());
   }
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, work_.size(), 16),
@@ -195,20 +221,39 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
         tbb::blocked_range<std::size_t>(0, work_.size(), 16),
         [&](const tbb::blocked_range<std::size_t>& range) {
           for (std::size_t w = range.begin(); w != range.end(); ++w) {
-            const Work& item = work_[w];
+            Work& item = work_[w];
             const Definition& d = *definitions_[item.definition];
             contact::SplineFrictionResult& f = friction_[w];
             f.active = false;
-            if (!d.friction || !item.result.active || !sensitivity_[w].valid || item.first_touch)
+            twist_[w].active = false;
+            if (!d.friction || !item.result.active || !sensitivity_[w].valid)
               continue;
             Eigen::Matrix3d A, B;
             control_points(d, item.pair, x, A, B);
             const auto& sa = curves_[d.spline[item.pair.first]].segment(d.segment[item.pair.first]);
             const auto& sb =
                 curves_[d.spline[item.pair.second]].segment(d.segment[item.pair.second]);
+            if (item.first_touch) {
+              // Anchored where it is if this increment converges (commit).
+              if (d.torsional)
+                item.history.twist = contact::crossing_angle(A, sa, B, sb, item.result);
+              continue;
+            }
             contact::spline_friction(A, sa, B, sb, item.result,
                                      want_tangent ? &sensitivity_[w] : nullptr, item.history,
                                      *d.friction, f, friction_options);
+            if (!d.torsional)
+              continue;
+            contact::TorsionalFrictionResult t;
+            contact::torsional_friction(
+                A, sa, B, sb, item.result, want_tangent ? &sensitivity_[w] : nullptr, item.history,
+                d.torsion(d.width[item.pair.first], d.width[item.pair.second]), t,
+                friction_options);
+            f.residual += t.residual;
+            if (want_tangent)
+              f.tangent += t.tangent;
+            twist_[w] = {t.active,      t.slipping, t.torque, t.slip_increment,
+                         t.dissipation, t.energy,   t.anchor};
           }
         });
   }
@@ -328,12 +373,14 @@ void SplineContactSet::assign_friction_histories() {
     }
     if (from >= 0) {
       const Snapshot::Warm& h = committed_[from];
-      item.history = {h.anchor_A, h.anchor_B, h.friction == 1};
+      item.history = {h.anchor_A, h.anchor_B, h.friction == 1, h.twist_anchor, h.twist != 2};
       item.slip = h.slip;
+      item.twist_slip = h.twist_slip;
       taken[from] = 1;
     } else {
       item.history = contact::first_touch(item.result);
       item.slip = 0;
+      item.twist_slip = 0;
       item.first_touch = true;
     }
   }
@@ -359,12 +406,24 @@ void SplineContactSet::commit() {
       warm.friction = f.slipping ? 2 : 1;
       warm.slip = item.slip + f.slip_increment;
       dissipated_ += f.dissipation;
+      const Twist& t = twist_[w];
+      if (t.active) {
+        warm.twist_anchor = t.anchor;
+        warm.twist = t.slipping ? 2 : 1;
+        warm.twist_slip = item.twist_slip + t.slip_increment;
+        dissipated_ += t.dissipation;
+      }
     } else if (any_friction_ && item.first_touch) {
       // Closed in this increment: anchored where it is, stuck.
       warm.anchor_A = item.history.xi_A;
       warm.anchor_B = item.history.xi_B;
       warm.friction = 1;
       warm.slip = 0;
+      if (definitions_[item.definition]->torsional) {
+        warm.twist_anchor = item.history.twist;
+        warm.twist = 1;
+        warm.twist_slip = 0;
+      }
     }
   }
   std::swap(committed_, next_committed_);
@@ -390,6 +449,12 @@ std::vector<ContactPoint> SplineContactSet::points() const {
       p.tangential_force = f.force;
       p.friction = f.slipping ? 2 : 1;
       p.slip = w.slip + f.slip_increment;
+      const Twist& t = twist_[k];
+      if (t.active) {
+        p.torque = t.torque;
+        p.twist = t.slipping ? 2 : 1;
+        p.twist_slip = w.twist_slip + t.slip_increment;
+      }
     }
   }
   return out;
@@ -467,6 +532,7 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
   if (any_friction_) {
     sensitivity_.assign(work_.size(), {});
     friction_.assign(work_.size(), {});
+    twist_.assign(work_.size(), {});
   }
   summarise();
 }
@@ -507,6 +573,16 @@ void SplineContactSet::summarise() {
     summary_.potential +=
         f.force.squaredNorm() / (2.0 * definitions_[work_[w].definition]->friction->eps_t());
     summary_.dissipation += f.dissipation;
+    const Twist& t = twist_[w];
+    if (!t.active)
+      continue;
+    ++(t.slipping ? summary_.twist_slip : summary_.twist_stick);
+    if (t.slipping) // a kink of the torsional law, as above
+      summary_.active_set = fold_active_pair(summary_.active_set, -(1 << 20) - work_[w].definition,
+                                             work_[w].pair.first, work_[w].pair.second);
+    summary_.torque += std::abs(t.torque);
+    summary_.potential += t.energy;
+    summary_.dissipation += t.dissipation;
   }
 }
 

@@ -2,7 +2,8 @@
 // The beam-to-beam spline contact stage (formulation.md §5): candidate segment pairs of the C1
 // quadratic contact splines from the FCL-backed search, closest-point projections in parallel,
 // Coulomb friction at the active point contacts of definitions that have it (contact/friction.hpp:
-// anchors committed with converged increments, handed over between neighbouring segment pairs),
+// anchors committed with converged increments, handed over between neighbouring segment pairs)
+// and, where asked for, torsional friction at the crossings (contact/torsional_friction.hpp),
 // assembly of the active pairs' 18 x 18 translational blocks in sorted order.
 
 #include "broadphase/candidate_search.hpp"
@@ -10,6 +11,7 @@
 #include "contact/interface_law.hpp"
 #include "contact/spline_contact.hpp"
 #include "contact/spline_curve.hpp"
+#include "contact/torsional_friction.hpp"
 #include "engine/contact/contact_set.hpp"
 
 #include <Eigen/Core>
@@ -57,6 +59,10 @@ public:
       /// (m), and friction = 1 stuck, 2 slipping, 0 none.
       double anchor_A = 0, anchor_B = 0, slip = 0;
       int friction = 0;
+      /// Torsional friction of that point: the anchor crossing angle (rad), the twist slip
+      /// accumulated since it closed (rad), and twist = 1 stuck, 2 slipping, 0 none.
+      double twist_anchor = 0, twist_slip = 0;
+      int twist = 0;
     };
     /// A candidate and the scalar part of its last SplineContactResult.
     struct Pair {
@@ -90,6 +96,7 @@ private:
     /// accumulated before this increment, m.
     contact::FrictionHistory history{};
     double slip = 0;
+    double twist_slip = 0; ///< rad, accumulated before this increment (torsional friction)
     /// An active point contact with friction and no history: it closed in this increment. It
     /// carries no friction until the increment converges, which anchors it where it closed (a
     /// history that followed the iterate would give zero force with a tangent that is not).
@@ -118,6 +125,13 @@ private:
   /// an active point contact alone) and the friction result (active where it was evaluated).
   std::vector<contact::SplineContactSensitivity> sensitivity_;
   std::vector<contact::SplineFrictionResult> friction_;
+  /// Per work item, where the definition has torsional friction: the torsional result's scalars
+  /// (its residual and tangent are added to friction_'s).
+  struct Twist {
+    bool active = false, slipping = false;
+    double torque = 0, slip_increment = 0, dissipation = 0, energy = 0, anchor = 0;
+  };
+  std::vector<Twist> twist_;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;

@@ -29,10 +29,19 @@ void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParame
                           friction.mu_static, friction.mu_kinetic));
   }
   if (!friction.active()) {
-    if (t.present("tangential_penalty"))
-      t.error("tangential_penalty",
-              "'tangential_penalty' applies only with friction (a coefficient above 0)");
+    for (const char* key :
+         {"tangential_penalty", "torsional_friction", "torsional_radius", "torsional_penalty"})
+      if (t.present(key))
+        t.error(key, fmt::format("'{}' applies only with friction (a coefficient above 0)", key));
     return;
+  }
+  friction.torsional = t.boolean("torsional_friction").value_or(false);
+  for (const char* key : {"torsional_radius", "torsional_penalty"})
+    if (t.present(key) && !friction.torsional)
+      t.error(key, fmt::format("'{}' applies only with torsional_friction = true", key));
+  if (friction.torsional) {
+    friction.torsional_radius = t.number("torsional_radius").value_or(0);   // 0: the default
+    friction.torsional_penalty = t.number("torsional_penalty").value_or(0); // 0: the default
   }
   if (t.present("tangential_penalty"))
     friction.tangential_penalty = t.number("tangential_penalty").value_or(0);

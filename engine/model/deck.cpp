@@ -214,6 +214,9 @@ constexpr KeySpec kContactKeys[] = {
     {"static_friction", Type::Number, kOptional, kNonNegative},
     {"kinetic_friction", Type::Number, kOptional, kNonNegative},
     {"tangential_penalty", Type::Number, kOptional, kPositive},
+    {"torsional_friction", Type::Boolean},
+    {"torsional_radius", Type::Number, kOptional, kPositive},
+    {"torsional_penalty", Type::Number, kOptional, kPositive},
 };
 constexpr TableSpec kContact{"[[contacts]]", kContactKeys};
 
@@ -1523,7 +1526,8 @@ private:
           if (t.present(key))
             t.error(key, fmt::format("'{}' applies only to type = \"spline\"", key));
         for (const char* key :
-             {"friction", "static_friction", "kinetic_friction", "tangential_penalty"})
+             {"friction", "static_friction", "kinetic_friction", "tangential_penalty",
+              "torsional_friction", "torsional_radius", "torsional_penalty"})
           if (t.present(key))
             t.error(key, fmt::format("'{}': friction is available for spline contact only; "
                                      "surface contact is frictionless in this version",

@@ -146,6 +146,9 @@ struct Spline {
   std::string name;
   std::vector<int> nodes; ///< control points, in order along the yarn (at least 3)
   double radius = 0;      ///< m
+  /// Width of the yarn's section across the contact (fabrics: 2 a, the in-plane semi-axis), m:
+  /// the footprint of torsional friction at its crossings; 0: 2 radius.
+  double width = 0;
 };
 
 /// Normal interface law: f = penalty p^exponent (+ damping * dp/dt while p > 0), p the
@@ -163,6 +166,14 @@ struct FrictionParameters {
   double mu_static = 0;          ///< -
   double mu_kinetic = 0;         ///< -, <= mu_static
   double tangential_penalty = 0; ///< N/m, > 0 when there is friction
+  /// Torsional friction at crossings (contact/torsional_friction.hpp): a friction torque about
+  /// the normal, bounded by mu f_n rho, with the same coefficients.
+  bool torsional = false;
+  /// rho, m; 0: per pair, footprint_radius(w_A, w_B) of the two splines' widths
+  /// (Spline::width, 2 radius where not given).
+  double torsional_radius = 0;
+  /// k_r, N m/rad; 0: tangential_penalty rho^2.
+  double torsional_penalty = 0;
   bool active() const { return mu_static > 0 || mu_kinetic > 0; }
 };
 
@@ -257,6 +268,14 @@ Section section_from_shape(std::string name, SectionShape shape, double a, doubl
 inline bool has_friction(const Model& model) {
   for (const SplineContactDefinition& c : model.spline_contacts)
     if (c.friction.active())
+      return true;
+  return false;
+}
+
+/// Whether any contact of the model has torsional friction at its crossings.
+inline bool has_torsional_friction(const Model& model) {
+  for (const SplineContactDefinition& c : model.spline_contacts)
+    if (c.friction.active() && c.friction.torsional)
       return true;
   return false;
 }

@@ -96,6 +96,11 @@ void write_contact(hid_t parent, const SplineContactSet::Snapshot& c) {
     values.insert(values.end(), {w.anchor_A, w.anchor_B, w.slip, static_cast<double>(w.friction)});
   write_table(g, "committed_friction", values, 4);
   h5::write_double_attribute(g, "friction_dissipated", c.dissipated);
+  // Torsional friction (twist_anchor, twist_slip, twist state): written by versions with it.
+  values.clear();
+  for (const auto& w : c.committed)
+    values.insert(values.end(), {w.twist_anchor, w.twist_slip, static_cast<double>(w.twist)});
+  write_table(g, "committed_twist", values, 3);
   keys.clear();
   values.clear();
   std::vector<int> flags;
@@ -264,6 +269,19 @@ SplineContactSet::Snapshot read_contact(hid_t parent) {
             fmt::format("checkpoint: committed contact {} has friction state {}", i, w.friction));
     }
     c.dissipated = h5::read_double_attribute(g, "friction_dissipated");
+  }
+  if (h5::exists(g, "committed_twist")) {
+    const std::vector<double> twist =
+        read_table(g, "committed_twist", static_cast<long>(c.committed.size()), 3);
+    for (std::size_t i = 0; i < c.committed.size(); ++i) {
+      auto& w = c.committed[i];
+      w.twist_anchor = twist[3 * i];
+      w.twist_slip = twist[3 * i + 1];
+      w.twist = static_cast<int>(twist[3 * i + 2]);
+      if (w.twist < 0 || w.twist > 2)
+        throw RestartError(
+            fmt::format("checkpoint: committed contact {} has twist state {}", i, w.twist));
+    }
   }
   keys = read_int_table(g, "pair_keys", 3);
   const long n = static_cast<long>(keys.size() / 3);

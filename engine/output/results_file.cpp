@@ -270,7 +270,8 @@ ResultsFile::ResultsFile(const std::filesystem::path& dir, const Mesh& mesh,
                       h5::read_int_attribute(group.id(), "increment"), scalars,
                       dims.empty() ? 0 : static_cast<int>(dims[0]),
                       h5::exists(group.id(), "contacts/tangential_force"),
-                      h5::exists(group.id(), "surface"), h5::exists(group.id(), "contact_tube"));
+                      h5::exists(group.id(), "contacts/torque"), h5::exists(group.id(), "surface"),
+                      h5::exists(group.id(), "contact_tube"));
   }
   steps_written_ = from.keep_steps;
   h5::flush(root);
@@ -307,6 +308,9 @@ void ResultsFile::write_step(const StepResults& step) {
     require_size("contact stick", contacts.stick.size(), n_contacts);
     require_size("contact slip", contacts.slip.size(), n_contacts);
   }
+  const bool torque = contacts.torque.size() > 0;
+  if (torque)
+    require_size("contact torque", contacts.torque.size(), n_contacts);
   for (std::size_t i = 0; i < step.scalars.size(); ++i) {
     const std::string& scalar = step.scalars[i].first;
     if (scalar.empty() || scalar == "increment" || scalar == "time")
@@ -347,6 +351,8 @@ void ResultsFile::write_step(const StepResults& step) {
     write_vector(contact_group.id(), "stick", contacts.stick);
     write_vector(contact_group.id(), "slip", contacts.slip);
   }
+  if (torque)
+    write_vector(contact_group.id(), "torque", contacts.torque);
   std::vector<int> vertices(static_cast<std::size_t>(n_contacts));
   std::iota(vertices.begin(), vertices.end(), 0);
   h5::write_dataset(contact_group.id(), "vertices", std::span<const int>(vertices),
@@ -366,8 +372,8 @@ void ResultsFile::write_step(const StepResults& step) {
   group.close();
   h5::flush(file_.id());
 
-  append_xdmf_grids(name, step.time, step.increment, step.scalars, n_contacts, friction, surface,
-                    tubes);
+  append_xdmf_grids(name, step.time, step.increment, step.scalars, n_contacts, friction, torque,
+                    surface, tubes);
   ++steps_written_;
   // The XDMF is rewritten whole, so rewriting it at every step of a long run would cost the
   // square of the step count: at most once a second, and always at the end. The .h5 holds
@@ -384,7 +390,8 @@ void ResultsFile::write_step(const StepResults& step) {
 
 void ResultsFile::append_xdmf_grids(const std::string& name, double time, int increment,
                                     const std::vector<std::pair<std::string, double>>& scalars,
-                                    int n_contacts, bool friction, bool surface, bool tubes) {
+                                    int n_contacts, bool friction, bool torque, bool surface,
+                                    bool tubes) {
   // This step's grids in results.xdmf. Connectivity and radius are the mesh's, shared by all
   // steps. A step without contacts has no "contacts" grid: the readers then show no contact
   // block at that time (an empty HDF5 DataItem makes the XDMF 2 reader report an error).
@@ -452,6 +459,9 @@ void ResultsFile::append_xdmf_grids(const std::string& name, double time, int in
       append_h5_attribute(xdmf_contacts_, "slip", "Scalar", "Node", std::to_string(n_contacts),
                           path + "/slip");
     }
+    if (torque)
+      append_h5_attribute(xdmf_contacts_, "torque", "Scalar", "Node", std::to_string(n_contacts),
+                          path + "/torque");
     xdmf_contacts_ += "      </Grid>\n";
   }
   if (surface)

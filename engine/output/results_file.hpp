@@ -32,6 +32,7 @@
 //     contacts/vertices (n_contacts) int32                       0 .. n_contacts-1 (for XDMF)
 //     contacts/tangential_force (n_contacts, 3), contacts/stick, contacts/slip (n_contacts)
 //                                                               N, 1 or 0, m (with friction)
+//     contacts/torque (n_contacts)                              N m (with torsional friction)
 //     surface/points (12 n_nodes, 3) float32                      m, ring points, node-major
 //     contact_tube/points (n_tube_points, 3) float32              m
 // Each step is flushed to disk when write_step returns; HDF5 file locking is off so ParaView can
@@ -83,6 +84,9 @@ struct ContactPoints {
   Eigen::Matrix3Xd tangential_force;
   Eigen::VectorXd stick;
   Eigen::VectorXd slip;
+  /// With torsional friction (n_contacts long, else empty): the friction torque about the
+  /// normal, N m.
+  Eigen::VectorXd torque;
 };
 
 /// The state at the end of one completed increment.
@@ -148,7 +152,7 @@ private:
   /// Appends the XDMF grids of step `name` (under /steps) to the two collections.
   void append_xdmf_grids(const std::string& name, double time, int increment,
                          const std::vector<std::pair<std::string, double>>& scalars, int n_contacts,
-                         bool friction, bool surface, bool tubes);
+                         bool friction, bool torque, bool surface, bool tubes);
 
   std::filesystem::path h5_path_;
   std::filesystem::path xdmf_path_;

@@ -72,10 +72,20 @@ std::string check_report(const Model& model) {
                           1e3 * f.mu_static / f.tangential_penalty)
             : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, tangential penalty {:.6g} N/m",
                           f.mu_static, f.mu_kinetic, f.tangential_penalty);
+    const std::string torsion =
+        !(f.active() && f.torsional)
+            ? std::string()
+            : fmt::format(", torsional friction at the crossings (radius {}, penalty {})",
+                          f.torsional_radius > 0
+                              ? fmt::format("{:.6g} mm", 1e3 * f.torsional_radius)
+                              : std::string("from the yarn widths"),
+                          f.torsional_penalty > 0
+                              ? fmt::format("{:.6g} N mm/rad", 1e3 * f.torsional_penalty)
+                              : std::string("tangential penalty x radius^2"));
     out += fmt::format("  spline contact '{}': {} x {} splines{}, {}, margin {:.6g} mm{}\n", c.name,
                        c.group_a.size(), c.self_contact ? c.group_a.size() : c.group_b.size(),
                        c.self_contact ? " (self contact)" : "", law_text(c.law), 1e3 * c.margin,
-                       friction);
+                       friction + torsion);
   }
   for (const SurfaceContactDefinition& c : model.surface_contacts)
     out += fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm\n", c.name,

@@ -200,7 +200,8 @@ private:
 /// the thread count.
 class ContactPointsFile {
 public:
-  explicit ContactPointsFile(const Model& model) : model_(model), friction_(has_friction(model)) {
+  explicit ContactPointsFile(const Model& model)
+      : model_(model), friction_(has_friction(model)), torsion_(has_torsional_friction(model)) {
     file_.name = "contact_points.csv";
     file_.columns = {"increment [-]", "time [s]", "contact", "a",     "a_segment [-]", "b",
                      "b_segment [-]", "x [m]",    "y [m]",   "z [m]", "gap [m]",       "force [N]",
@@ -209,6 +210,10 @@ public:
     if (friction_)
       file_.columns.insert(file_.columns.end(),
                            {"ftx [N]", "fty [N]", "ftz [N]", "state", "slip [m]"});
+    // With torsional friction: the torque about the normal, the twist's state and its slip.
+    if (torsion_)
+      file_.columns.insert(file_.columns.end(),
+                           {"torque [N m]", "twist_state", "twist_slip [rad]"});
   }
 
   const CsvFile& file() const { return file_; }
@@ -246,6 +251,10 @@ public:
                      {number(p.tangential_force.x()), number(p.tangential_force.y()),
                       number(p.tangential_force.z()), kState[p.friction], number(p.slip)});
       }
+      if (torsion_) {
+        static constexpr const char* kState[] = {"none", "stick", "slip"};
+        cells.insert(cells.end(), {number(p.torque), kState[p.twist], number(p.twist_slip)});
+      }
       out.emplace_back(&file_, std::move(cells));
     }
   }
@@ -253,8 +262,22 @@ public:
 private:
   const Model& model_;
   bool friction_;
+  bool torsion_;
   CsvFile file_;
 };
+
+/// Columns of contact.csv.
+std::vector<std::string> contact_csv_columns(bool friction, bool torsion) {
+  std::vector<std::string> columns{"time [s]",      "candidates [-]",
+                                   "active [-]",    "max_penetration [m]",
+                                   "max_force [N]", "total_force [N]"};
+  if (friction)
+    columns.insert(columns.end(),
+                   {"stick [-]", "slip [-]", "tangential_force [N]", "friction_dissipation [J]"});
+  if (torsion)
+    columns.insert(columns.end(), {"twist_stick [-]", "twist_slip [-]", "friction_torque [N m]"});
+  return columns;
+}
 
 /// Everything a completed increment writes, computed by the solver thread.
 struct IncrementOutput {
@@ -358,6 +381,11 @@ public:
             o.contacts.slip(k) = points[k].slip;
           }
         }
+        if (torsion_) {
+          o.contacts.torque.resize(np);
+          for (int k = 0; k < np; ++k)
+            o.contacts.torque(k) = points[k].torque;
+        }
         o.scalars.push_back({"active_contacts", double(np)});
         o.scalars.push_back({"max_penetration", contact->max_penetration()});
       }
@@ -442,6 +470,8 @@ private:
       if (friction_)
         values.insert(values.end(),
                       {double(s.stick), double(s.slip), s.tangential_force, s.dissipation});
+      if (torsion_)
+        values.insert(values.end(), {double(s.twist_stick), double(s.twist_slip), s.torque});
       rows.push_back({&contact_csv_, std::move(values)});
       contact_points_.rows(*contact, increment, time, rows);
     }
@@ -496,17 +526,11 @@ private:
   double t_end_ = 0;
   long iterations_ = 0;
   const bool friction_ = has_friction(model_);
+  const bool torsion_ = has_torsional_friction(model_);
   /// With friction also: points in stick and in slip, the summed friction force and the energy
-  /// friction has dissipated since the start.
-  const CsvFile contact_csv_{
-      "contact.csv",
-      friction_
-          ? std::vector<std::string>{"time [s]", "candidates [-]", "active [-]",
-                                     "max_penetration [m]", "max_force [N]", "total_force [N]",
-                                     "stick [-]", "slip [-]", "tangential_force [N]",
-                                     "friction_dissipation [J]"}
-          : std::vector<std::string>{"time [s]", "candidates [-]", "active [-]",
-                                     "max_penetration [m]", "max_force [N]", "total_force [N]"}};
+  /// friction has dissipated since the start (torsional friction's included); with torsional
+  /// friction also: crossings whose twist sticks and slips, and the summed friction torque.
+  const CsvFile contact_csv_{"contact.csv", contact_csv_columns(friction_, torsion_)};
   const ContactPointsFile& contact_points_;
   /// Explicit steps; with friction also the energy it dissipated.
   const CsvFile energy_csv_{

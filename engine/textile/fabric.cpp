@@ -187,7 +187,10 @@ void finish_fabric(Fabric& fabric, std::span<const double> contact_radius,
   for (std::size_t k = 0; k < fabric.yarns.size(); ++k) {
     const Yarn& y = fabric.yarns[k];
     const int index = static_cast<int>(model.splines.size());
-    model.splines.push_back({yarn_name(y), y.nodes, contact_radius[k]});
+    // The section's in-plane width (axis 1 lies in the fabric plane): the footprint of the
+    // torsional friction at its crossings.
+    const Section& section = model.sections[model.elements[y.elements.front()].section];
+    model.splines.push_back({yarn_name(y), y.nodes, contact_radius[k], 2 * section.a});
     (y.warp ? contact.group_a : contact.group_b).push_back(index);
     contact.margin = std::max(contact.margin, contact_radius[k]);
   }

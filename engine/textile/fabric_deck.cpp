@@ -135,6 +135,9 @@ constexpr KeySpec kContactKeys[] = {
     {"static_friction", Type::Number, kOptional, kNonNegative},
     {"kinetic_friction", Type::Number, kOptional, kNonNegative},
     {"tangential_penalty", Type::Number, kOptional, kPositive},
+    {"torsional_friction", Type::Boolean},
+    {"torsional_radius", Type::Number, kOptional, kPositive},
+    {"torsional_penalty", Type::Number, kOptional, kPositive},
 };
 constexpr TableSpec kContact{"[contact]", kContactKeys};
 

@@ -860,6 +860,33 @@ TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
                    "contacts[0].tangential_penalty: 'tangential_penalty' applies only with "
                    "friction");
   expect_one_error("friction = -0.1\n", "contacts[0].friction: expected a number >= 0, found -0.1");
+  // Torsional friction: off by default; its radius and penalty default to 0 (derived per pair).
+  EXPECT_FALSE(f.torsional);
+  f = friction_of(replace(kSplines, "margin = 0.001\n",
+                          "margin = 0.001\nfriction = 0.2\ntangential_penalty = 1e5\n"
+                          "torsional_friction = true\n"));
+  EXPECT_TRUE(f.torsional);
+  EXPECT_EQ(f.torsional_radius, 0.0);
+  EXPECT_EQ(f.torsional_penalty, 0.0);
+  f = friction_of(replace(kSplines, "margin = 0.001\n",
+                          "margin = 0.001\nfriction = 0.2\ntangential_penalty = 1e5\n"
+                          "torsional_friction = true\ntorsional_radius = 4e-4\n"
+                          "torsional_penalty = 0.02\n"));
+  EXPECT_DOUBLE_EQ(f.torsional_radius, 4e-4);
+  EXPECT_DOUBLE_EQ(f.torsional_penalty, 0.02);
+  expect_one_error("torsional_friction = true\n",
+                   "contacts[0].torsional_friction: 'torsional_friction' applies only with "
+                   "friction (a coefficient above 0)");
+  expect_one_error("friction = 0.2\ntangential_penalty = 1e5\ntorsional_radius = 4e-4\n",
+                   "contacts[0].torsional_radius: 'torsional_radius' applies only with "
+                   "torsional_friction = true");
+  expect_one_error("friction = 0.2\ntangential_penalty = 1e5\ntorsional_friction = false\n"
+                   "torsional_penalty = 0.02\n",
+                   "contacts[0].torsional_penalty: 'torsional_penalty' applies only with "
+                   "torsional_friction = true");
+  expect_one_error("friction = 0.2\ntangential_penalty = 1e5\ntorsional_friction = true\n"
+                   "torsional_radius = 0\n",
+                   "contacts[0].torsional_radius: expected a number > 0, found 0");
   // Not on the explicit path (its energy balance does not close): said at the key.
   const auto errors =
       errors_of(replace(replace(kSplines, "margin = 0.001\n",

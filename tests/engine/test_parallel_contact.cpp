@@ -328,7 +328,7 @@ struct Bits : SimulationObserver {
     force.push_back(s.contact()->total_force());
     potential.push_back(s.contact_energy());
     dissipation.push_back(s.contact()->summary().dissipation);
-    slipping.push_back(s.contact()->summary().slip);
+    slipping.push_back(s.contact()->summary().slip + s.contact()->summary().twist_slip);
     iterations.push_back(r.iterations);
     checkpoints.push_back(s.checkpoint());
   }
@@ -403,6 +403,23 @@ TEST(ParallelContact, FrictionIsBitwiseTheSameOnOneAndTwoThreadsAndAfterARestart
     ++k;
   ASSERT_GT(one.slipping[k], 0);
   expect_same_bits(one, k + 1, run_from_file(m, one.checkpoints[k], "friction"));
+}
+
+TEST(ParallelContact, TorsionalFrictionIsBitwiseTheSameOnOneAndTwoThreadsAndAfterARestart) {
+  // As above with torsional friction at the crossings (its anchors and states in the
+  // checkpoint's committed_twist table), to t = 0.3 s.
+  Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" /
+                      "biaxial-k1-friction.toml");
+  m.steps.back().end_time = 0.3;
+  m.spline_contacts[0].friction.torsional = true;
+  const Bits one = run_on(m, 1);
+  ASSERT_GT(one.force.back(), 0.0);
+  ASSERT_GT(one.dissipation.back(), 0.0);
+  expect_same_bits(one, 0, run_on(m, 2));
+  std::size_t k = one.x.size() / 2;
+  while (k + 2 < one.x.size() && one.slipping[k] == 0)
+    ++k;
+  expect_same_bits(one, k + 1, run_from_file(m, one.checkpoints[k], "torsion"));
 }
 
 } // namespace

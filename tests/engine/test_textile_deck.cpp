@@ -112,6 +112,23 @@ TEST(FabricDeck, ContactFrictionReachesTheWarpWeftContact) {
   EXPECT_DOUBLE_EQ(f.mu_static, 0.3);
   EXPECT_DOUBLE_EQ(f.mu_kinetic, 0.2);
   EXPECT_DOUBLE_EQ(f.tangential_penalty, 2e6); // the linear law's penalty
+  EXPECT_FALSE(f.torsional);
+  // Torsional friction: the footprint is the yarns' widths, 2 a (Spline::width).
+  const Model t = read_deck_string(std::string(kValid) + "[contact]\nfriction = 0.2\n"
+                                                         "torsional_friction = true\n",
+                                   "fabric.toml");
+  EXPECT_TRUE(t.spline_contacts[0].friction.torsional);
+  for (const Spline& s : t.splines) {
+    const int element = [&] {
+      for (std::size_t e = 0; e < t.elements.size(); ++e)
+        if (t.elements[e].nodes[0] == s.nodes[0])
+          return static_cast<int>(e);
+      return -1;
+    }();
+    ASSERT_GE(element, 0) << s.name;
+    EXPECT_DOUBLE_EQ(s.width, 2 * t.sections[t.elements[element].section].a) << s.name;
+    EXPECT_GT(s.width, 2 * s.radius) << s.name; // flat yarns: wider than the contact circle
+  }
   // Surface contact has no friction yet: said, not dropped.
   const auto e = errors_of(std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n");
   ASSERT_EQ(e.size(), 1u) << joined(e);

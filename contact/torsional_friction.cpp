@@ -1,0 +1,161 @@
+#include "contact/torsional_friction.hpp"
+
+#include "contact/projection_jet.hpp"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace yarnsim::contact {
+
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+/// a . (b x c) of jets.
+template <int H>
+JetT<H> triple(const Jet3T<H>& a, const Jet3T<H>& b, const Jet3T<H>& c) {
+  return a.c[0] * (b.c[1] * c.c[2] - b.c[2] * c.c[1]) +
+         a.c[1] * (b.c[2] * c.c[0] - b.c[0] * c.c[2]) +
+         a.c[2] * (b.c[0] * c.c[1] - b.c[1] * c.c[0]);
+}
+
+/// atan2(y, x) of jets: atan(y / x) (plus a constant) where |x| >= |y|, else
+/// pi / 2 - atan(x / y) (plus a constant), which have atan2's derivatives.
+template <int H>
+JetT<H> atan2_jet(const JetT<H>& y, const JetT<H>& x) {
+  const double value = std::atan2(y.v, x.v);
+  if (std::abs(x.v) >= std::abs(y.v)) {
+    const JetT<H> q = y / x;
+    const double s = 1.0 / (1.0 + q.v * q.v);
+    return apply(q, value, s, -2.0 * q.v * s * s);
+  }
+  const JetT<H> q = x / y;
+  const double s = 1.0 / (1.0 + q.v * q.v);
+  return apply(q, value, -s, 2.0 * q.v * s * s);
+}
+
+/// theta (the file header's crossing angle) as a jet of the positions: atan2 of
+/// (g . (a x b), |g| a . b), which are n . (a x b) and a . b times |g| > 0.
+template <int H>
+JetT<H> angle_jet(const Matrix3d& control_A, const SegmentBasis& basis_A, double ua,
+                  const Matrix3d& control_B, const SegmentBasis& basis_B, double ub) {
+  JetT<H> jua, jub;
+  closest_point_jets(control_A, basis_A, ua, control_B, basis_B, ub, jua, jub);
+  const Jet3T<H> g = jet_point(control_A, basis_A, 0, jua) - jet_point(control_B, basis_B, 3, jub);
+  const Jet3T<H> a = jet_tangent(control_A, basis_A, 0, jua);
+  const Jet3T<H> b = jet_tangent(control_B, basis_B, 3, jub);
+  return atan2_jet(triple(g, a, b), sqrt(dot(g, g)) * dot(a, b));
+}
+
+bool regular_point(const SplineContactResult& contact) {
+  return contact.active && !contact.degenerate && contact.point_evaluated &&
+         contact.point_share == 1.0 && contact.line_points == 0;
+}
+
+/// The law and the residual; the tangent where J carries a Hessian.
+template <int H>
+void evaluate(const JetT<H>& theta, double f_n, const SplineContactSensitivity* sensitivity,
+              const FrictionHistory& history, const TorsionalFriction& law,
+              TorsionalFrictionResult& out) {
+  const double k_r = law.k_r();
+  const double mu = history.twist_stuck ? law.mu_s() : law.mu_k();
+  const double twist = std::remainder(theta.v - history.twist, 2.0 * std::numbers::pi);
+  const double limit = mu * f_n * law.rho(); // N m
+  const double phi = k_r * std::abs(twist) - limit;
+  out.active = true;
+  out.mu = mu;
+  out.angle = theta.v;
+  out.elastic_twist = twist;
+  out.slip_function = phi;
+  out.slipping = phi > 0.0;
+  out.stuck = !out.slipping;
+  double m = k_r * twist;
+  if (out.slipping) {
+    m = std::copysign(limit, twist);
+    out.anchor = std::remainder(theta.v - m / k_r, 2.0 * std::numbers::pi);
+    out.slip_increment = std::abs(twist) - limit / k_r;
+    out.dissipation = limit * out.slip_increment;
+  }
+  out.torque = m;
+  out.energy = m * m / (2.0 * k_r);
+  out.residual = m * theta.g;
+  if constexpr (H > 0) {
+    out.tangent = m * theta.h;
+    if (out.slipping)
+      out.tangent.noalias() +=
+          theta.g * (mu * law.rho() * std::copysign(1.0, twist) * sensitivity->force.transpose());
+    else
+      out.tangent.noalias() += k_r * theta.g * theta.g.transpose();
+  }
+}
+
+} // namespace
+
+TorsionalFriction::TorsionalFriction(double mu_s, double mu_k, double k_r, double rho)
+    : mu_s_(mu_s), mu_k_(mu_k), k_r_(k_r), rho_(rho) {
+  if (!(std::isfinite(mu_k) && mu_k >= 0.0 && std::isfinite(mu_s) && mu_s >= mu_k &&
+        std::isfinite(k_r) && k_r > 0.0 && std::isfinite(rho) && rho > 0.0)) {
+    std::ostringstream msg;
+    msg << "TorsionalFriction: expected 0 <= mu_k <= mu_s, k_r > 0 and rho > 0, all finite; "
+        << "found mu_s = " << mu_s << ", mu_k = " << mu_k << ", k_r = " << k_r
+        << " N m/rad, rho = " << rho << " m";
+    throw std::invalid_argument(msg.str());
+  }
+}
+
+double footprint_radius(double width_A, double width_B) {
+  // Mean of |r| over [-p, p] x [-q, q]: (1 / (6 p q)) (2 p q d + p^3 ln((q + d) / p)
+  // + q^3 ln((p + d) / q)), d = sqrt(p^2 + q^2) (the integral of |r| over a quarter).
+  const double p = 0.5 * width_A, q = 0.5 * width_B;
+  const double d = std::hypot(p, q);
+  return (2.0 * p * q * d + p * p * p * std::log((q + d) / p) + q * q * q * std::log((p + d) / q)) /
+         (6.0 * p * q);
+}
+
+double crossing_angle(const Matrix3d& control_A, const SegmentBasis& basis_A,
+                      const Matrix3d& control_B, const SegmentBasis& basis_B,
+                      const SplineContactResult& contact) {
+  const Vector3d a = control_A * basis_A.first_local(basis_A.local(contact.xi_A));
+  const Vector3d b = control_B * basis_B.first_local(basis_B.local(contact.xi_B));
+  return std::atan2(contact.normal.dot(a.cross(b)), a.dot(b));
+}
+
+void torsional_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
+                        const Matrix3d& control_B, const SegmentBasis& basis_B,
+                        const SplineContactResult& contact,
+                        const SplineContactSensitivity* sensitivity, const FrictionHistory& history,
+                        const TorsionalFriction& law, TorsionalFrictionResult& out,
+                        const FrictionOptions& options) {
+  out.active = false;
+  out.slipping = false;
+  out.mu = out.angle = out.elastic_twist = out.torque = 0.0;
+  out.slip_function = out.slip_increment = out.dissipation = out.energy = 0.0;
+  out.anchor = history.twist;
+  out.stuck = history.twist_stuck;
+  out.residual.setZero();
+  out.tangent.setZero();
+  if (!regular_point(contact))
+    return;
+  if (options.compute_tangent && (sensitivity == nullptr || !sensitivity->valid)) {
+    throw std::invalid_argument(
+        "torsional_friction: the tangent needs the normal contact's SplineContactSensitivity "
+        "(pass one to spline_contact); found " +
+        std::string(sensitivity == nullptr ? "none" : "one not valid for this contact"));
+  }
+  const double ua = basis_A.local(contact.xi_A);
+  const double ub = basis_B.local(contact.xi_B);
+  if (options.compute_tangent)
+    evaluate(angle_jet<18>(control_A, basis_A, ua, control_B, basis_B, ub), contact.force,
+             sensitivity, history, law, out);
+  else
+    evaluate(angle_jet<0>(control_A, basis_A, ua, control_B, basis_B, ub), contact.force,
+             sensitivity, history, law, out);
+}
+
+} // namespace yarnsim::contact
