@@ -299,6 +299,18 @@ TEST(SurfaceFriction, SensitivityMatchesCentralDifferencesAndLeavesTheContactAlo
     EXPECT_EQ(r.force, plain.force);
     EXPECT_EQ(r.residual, plain.residual);
     EXPECT_EQ(r.tangent, plain.tangent);
+    {
+      // The same sensitivity without the tangent.
+      SurfaceContactOptions residual_only;
+      residual_only.compute_tangent = false;
+      SurfaceContactSensitivity s2;
+      const SurfaceContactResult r2 =
+          surface_contact(p.A(), p.B(), {}, law, residual_only, rp, &s2);
+      EXPECT_TRUE(s2.valid);
+      EXPECT_EQ(r2.residual, plain.residual);
+      EXPECT_EQ(s2.coordinates, s.coordinates);
+      EXPECT_EQ(s2.force, s.force);
+    }
     if (r.share < 1.0) {
       ++windowed;
       EXPECT_NE(s.share.cwiseAbs().maxCoeff(), 0.0);
@@ -365,13 +377,13 @@ Evaluation evaluate(const Pair& p, const InterfaceLaw& law, const CoulombFrictio
 /// base one. Also checks that the state (stick or slip) does not switch.
 double friction_tangent_error(const Pair& base, const InterfaceLaw& law,
                               const CoulombFriction& friction,
-                              const SurfaceFrictionHistory& history) {
+                              const SurfaceFrictionHistory& history, double relative_step = 1e-6) {
   const Evaluation e0 = evaluate(base, law, friction, history);
   EXPECT_TRUE(e0.friction.active);
   const SurfaceProjectionStart warm = warm_start(e0.contact);
   Mat24 fd;
   for (int i = 0; i < 24; ++i) {
-    fd.col(i) = richardson(base, i, 1e-6 * dof_scale(i), [&](const Pair& q, double) {
+    fd.col(i) = richardson(base, i, relative_step * dof_scale(i), [&](const Pair& q, double) {
       const Evaluation e = evaluate(q, law, friction, history, warm);
       EXPECT_EQ(e.contact.status, ProjectionStatus::Converged);
       EXPECT_EQ(e.friction.slipping, e0.friction.slipping);
@@ -464,6 +476,36 @@ TEST(SurfaceFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
 TEST(SurfaceFriction, TangentMatchesCentralDifferencesInsideTheEndWindow) {
   std::mt19937 rng(12);
   check_tangent("end window", rng, true);
+}
+
+/// The tangent at penetrations from 1e-10 m to 0.2 mm. The friction force depends on the contact
+/// coordinates at first order, so the central differences see the projection's accuracy directly:
+/// at 1e-8 m the default step tolerance (1e-12) leaves 4e-7 (2e-9 at 1e-14); at 1e-10 m the steps
+/// must stay below the depth (a tenth of it here), and the error measured grows as 1 / step there
+/// (rounding in the re-solved projections, 5e-6 at depth / 300), not from the tangent.
+TEST(SurfaceFriction, TangentMatchesCentralDifferencesAtTinyAndDeepPenetrations) {
+  std::mt19937 rng(17);
+  const LinearPenalty law(kEps);
+  for (const double depth : {1e-10, 1e-8, 1e-7, 5e-5, 2e-4}) {
+    // Steps well below the depth, so that no perturbation opens the gap.
+    const double step = std::min(1e-6, 0.1 * depth / 1e-3);
+    double worst = 0.0;
+    int tested = 0;
+    while (tested < 4) {
+      Pair p = random_crossing(rng);
+      if (!place(p, -depth)) {
+        continue;
+      }
+      ++tested;
+      const bool slip = tested % 2 == 0;
+      const Anchored a = anchored(rng, p, law, false, true, 0.3, slip ? 2.0 : 0.5);
+      const CoulombFriction friction(0.3, 0.2, a.eps_t);
+      const double error = friction_tangent_error(p, law, friction, a.history, step);
+      EXPECT_LT(error, 1e-6) << "depth " << depth << ", slip " << slip;
+      worst = std::max(worst, error);
+    }
+    RecordProperty("worst_error_depth_" + scientific(depth), scientific(worst));
+  }
 }
 
 // ---- Straight crossing cylinders ---------------------------------------------------------------
