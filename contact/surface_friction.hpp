@@ -71,9 +71,8 @@
 // -H^-1 D with H the Hessian of |g|^2 / 2, which turns singular as the gap closes (the surfaces
 // can slide together at no cost to second order): checked against central differences from
 // 1e-10 m to 0.2 mm of penetration at the study's scales; at exact touching it is undefined.
-// Two pairs sharing a
-// contact in an end window keep separate anchors: a pair that starts to hold a contact anchors
-// at first touch (its share rises from 0, so its force does).
+// Two pairs sharing a contact in an end window keep separate anchors: a pair that starts to hold
+// a contact anchors at first touch (its share rises from 0, so its force does).
 
 #include "contact/friction.hpp" // CoulombFriction, FrictionOptions
 #include "contact/superelliptical_cylinder.hpp"
