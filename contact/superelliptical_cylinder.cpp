@@ -223,6 +223,68 @@ SuperEllipticalCylinder::Point SuperEllipticalCylinder::evaluate(double zeta, do
   return p;
 }
 
+namespace {
+
+/// Hessian of y . Q(alpha) w with respect to alpha, y and w fixed (the same closed form as
+/// surface_contact.cpp's). With A = skew(alpha), gam = 4 / (4 + alpha . alpha):
+/// y . Q w = y . w + gam h, h = alpha . (w x y) + alpha^T M alpha / 2, M = sym(y w^T) - (y . w)
+/// I; grad gam = -gam^2 alpha / 2.
+Eigen::Matrix3d rotation_hessian(const Eigen::Vector3d& alpha, const Eigen::Vector3d& w,
+                                 const Eigen::Vector3d& y) {
+  const double gam = 4.0 / (4.0 + alpha.squaredNorm());
+  Eigen::Matrix3d m = 0.5 * (y * w.transpose() + w * y.transpose());
+  m.diagonal().array() -= y.dot(w);
+  const Eigen::Vector3d b = w.cross(y);
+  const Eigen::Vector3d q = b + m * alpha;
+  const double h = alpha.dot(b) + 0.5 * alpha.dot(m * alpha);
+  Eigen::Matrix3d out = gam * m;
+  out.diagonal().array() -= 0.5 * gam * gam * h;
+  out.noalias() += (0.5 * gam * gam * gam * h) * alpha * alpha.transpose();
+  out.noalias() -= (0.5 * gam * gam) * (alpha * q.transpose() + q * alpha.transpose());
+  return out;
+}
+
+} // namespace
+
+SuperEllipticalCylinder::Jacobian SuperEllipticalCylinder::jacobian(const Point& p) const {
+  Jacobian j = Jacobian::Zero();
+  for (int k = 0; k < 2; ++k) {
+    j.block<3, 3>(0, 3 * k).diagonal().setConstant(p.shape[k]);
+    j.block<3, 3>(0, 6 + 3 * k) = -p.shape[k] * skew<double>(p.v[k]) * xi_[k];
+  }
+  return j;
+}
+
+SuperEllipticalCylinder::Jacobian SuperEllipticalCylinder::d_zeta_jacobian(const Point& p) const {
+  Jacobian j = Jacobian::Zero();
+  for (int k = 0; k < 2; ++k) {
+    const double s = k == 0 ? -0.5 : 0.5;
+    j.block<3, 3>(0, 3 * k).diagonal().setConstant(s);
+    j.block<3, 3>(0, 6 + 3 * k) = -s * skew<double>(p.v[k]) * xi_[k];
+  }
+  return j;
+}
+
+SuperEllipticalCylinder::Jacobian SuperEllipticalCylinder::d_theta_jacobian(const Point& p) const {
+  Jacobian j = Jacobian::Zero();
+  for (int k = 0; k < 2; ++k) {
+    j.block<3, 3>(0, 6 + 3 * k) = -p.shape[k] * skew<double>(p.dv[k]) * xi_[k];
+  }
+  return j;
+}
+
+Eigen::Matrix<double, 12, 12>
+SuperEllipticalCylinder::weighted_hessian(const Point& p, const Eigen::Vector3d& y) const {
+  Eigen::Matrix<double, 12, 12> h = Eigen::Matrix<double, 12, 12>::Zero();
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Matrix3d& qn = nodes_[k].converged_rotation;
+    const Eigen::Vector3d w = p.section.x() * qn.col(0) + p.section.y() * qn.col(1);
+    h.block<3, 3>(6 + 3 * k, 6 + 3 * k) =
+        rotation_hessian(nodes_[k].rotation_increment, w, p.shape[k] * y);
+  }
+  return h;
+}
+
 Eigen::Vector3d SuperEllipticalCylinder::outward_normal(const Point& p) const {
   Eigen::Vector3d n = p.d_theta.cross(p.d_zeta);
   const double length = n.norm();

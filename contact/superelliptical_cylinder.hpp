@@ -160,6 +160,22 @@ public:
   /// Gamma and its derivatives at (zeta, theta). Never allocates.
   Point evaluate(double zeta, double theta) const;
 
+  /// Derivatives of surface quantities with respect to the element's 12 DOFs (x_A, x_B,
+  /// alpha_A, alpha_B) at fixed (zeta, theta), from an evaluated point: 3 x 12, metres per metre
+  /// for the translations and metres per unit Rodrigues parameter for the increments, with
+  /// d(Q(alpha) w)/dalpha = -skew(Q w) Xi(alpha). For the friction kernel (surface_friction.hpp).
+  using Jacobian = Eigen::Matrix<double, 3, 12>;
+  /// dGamma/dd: N_k I for x_k, -N_k skew(v_k) Xi_k for alpha_k.
+  Jacobian jacobian(const Point& p) const;
+  /// d(Gamma_zeta)/dd: -+1/2 I for x_k, -+1/2 (-skew(v_k) Xi_k) for alpha_k (minus for k = 0).
+  Jacobian d_zeta_jacobian(const Point& p) const;
+  /// d(Gamma_theta)/dd: zero for x_k, -N_k skew(Q_k s'(theta)) Xi_k for alpha_k.
+  Jacobian d_theta_jacobian(const Point& p) const;
+  /// d2(y . Gamma)/dd2 at fixed (zeta, theta) and fixed y (any 3-vector), 12 x 12: Gamma is
+  /// linear in the translations, so only the two alpha_k blocks are non-zero: the Hessian of
+  /// N_k y . Q(alpha_k) w_k, w_k = Q_n,k s(theta) (closed form as in surface_contact.cpp).
+  Eigen::Matrix<double, 12, 12> weighted_hessian(const Point& p, const Eigen::Vector3d& y) const;
+
   /// Unit outward normal at an evaluated point: (Gamma_theta x Gamma_zeta) normalised, turned to
   /// point away from the axis (the section is convex around its centre). Zero if the tangents
   /// are parallel.

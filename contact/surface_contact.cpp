@@ -1009,10 +1009,53 @@ Matrix3d rotation_hessian(const Vector3d& alpha, const Vector3d& w, const Vector
   return out;
 }
 
+/// The sensitivity of an active regular contact (SurfaceContactSensitivity), computed apart
+/// from the tangent so that the contact's outputs do not depend on whether it is asked for.
+/// dc/dd = -H^-1 D; with f_n = w f(p, pdot), p = -g_n:
+///   df_n/dd = w (-f_p grad g_n + f_pdot grad pdot) + f grad w,
+///   grad w = w_,zeta_A dzeta_A/dd + w_,zeta_B dzeta_B/dd,
+///   grad pdot = -(hess g_n rate + vpd grad g_n) (as in the damped tangent),
+///   hess g_n rate = (sg / |g|) (hess Phi* rate - grad g_n (grad g_n . rate)).
+void write_sensitivity(const Cylinder* s[2], const PairPoint& e, const Mat3x24& gj,
+                       const Vec24& grad, double sg, double dist, double w, const double (&dw)[2],
+                       double f, double fp, double fv, const SurfacePairRates* rates,
+                       SurfaceContactSensitivity& out) {
+  const Mat4 h = phi_hessian(e);
+  const Mat4x24 d = mixed_derivative(s, e, gj);
+  const Mat4 h_inv = Eigen::PartialPivLU<Mat4>(h).inverse();
+  const Mat4x24 y = h_inv.lazyProduct(d); // H^-1 D
+  out.coordinates = -y;
+  out.share = -(dw[0] * y.row(0) + dw[1] * y.row(2)).transpose();
+  out.force = (-w * fp) * grad + f * out.share;
+  if (rates != nullptr && fv != 0.0) {
+    const Vec24& rate = rates->rate;
+    Vec24 hess_rate = gj.transpose() * (gj * rate) - d.transpose() * (y * rate);
+    for (int x = 0; x < 2; ++x) {
+      const Cylinder::Point& pt = e.p[x];
+      for (int k = 0; k < 2; ++k) {
+        const Matrix3d& qn = s[x]->node(k).converged_rotation;
+        const Vector3d wk = pt.section.x() * qn.col(0) + pt.section.y() * qn.col(1);
+        const int j = rotation_index(x, k);
+        hess_rate.segment<3>(j) +=
+            rotation_hessian(s[x]->node(k).rotation_increment, wk, (sigma(x) * pt.shape[k]) * e.g) *
+            rate.segment<3>(j);
+      }
+    }
+    const Vec24 hess_gn_rate = (sg / dist) * (hess_rate - grad * grad.dot(rate));
+    const Vec24 grad_pdot = -(hess_gn_rate + rates->velocity_per_displacement * grad);
+    out.force += (w * fv) * grad_pdot;
+  }
+  out.valid = true;
+}
+
 /// The body of surface_contact; returns whether it wrote the tangent.
 bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionStart& start,
                   const InterfaceLaw& law, SurfaceContactResult& out,
-                  const SurfaceContactOptions& options, const SurfacePairRates* rates) {
+                  const SurfaceContactOptions& options, const SurfacePairRates* rates,
+                  SurfaceContactSensitivity* sensitivity) {
+  if (sensitivity != nullptr) {
+    sensitivity->valid = false;
+  }
   const LocalProjection lp = project(A, B, start, options);
   out.status = lp.result.status;
   out.degeneration = lp.result.degeneration;
@@ -1089,6 +1132,11 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
   out.potential = w * law.potential(p);
   out.active = true;
   out.residual = -f * grad;
+  if (sensitivity != nullptr && !degenerate) {
+    const double dws[2] = {dshare[0] * share_b, share_a * dshare[1]};
+    write_sensitivity(s, e, gj, grad, sg, dist, w, dws, f, law.stiffness(p, pdot),
+                      rates != nullptr ? law.damping(p, pdot) : 0.0, rates, *sensitivity);
+  }
   if (!options.compute_tangent) {
     out.residual *= w;
     return false;
@@ -1241,8 +1289,8 @@ SurfaceProjectionResult surface_projection(const SuperEllipticalCylinder& A,
 void surface_contact(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
                      const SurfaceProjectionStart& start, const InterfaceLaw& law,
                      SurfaceContactResult& out, const SurfaceContactOptions& options,
-                     const SurfacePairRates* rates) {
-  if (!fill_contact(A, B, start, law, out, options, rates)) {
+                     const SurfacePairRates* rates, SurfaceContactSensitivity* sensitivity) {
+  if (!fill_contact(A, B, start, law, out, options, rates, sensitivity)) {
     out.tangent.setZero();
   }
 }
@@ -1251,9 +1299,10 @@ SurfaceContactResult surface_contact(const SuperEllipticalCylinder& A,
                                      const SuperEllipticalCylinder& B,
                                      const SurfaceProjectionStart& start, const InterfaceLaw& law,
                                      const SurfaceContactOptions& options,
-                                     const SurfacePairRates* rates) {
+                                     const SurfacePairRates* rates,
+                                     SurfaceContactSensitivity* sensitivity) {
   SurfaceContactResult out;
-  surface_contact(A, B, start, law, out, options, rates);
+  surface_contact(A, B, start, law, out, options, rates, sensitivity);
   return out;
 }
 

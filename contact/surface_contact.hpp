@@ -138,6 +138,28 @@ struct SurfaceContactResult {
   Eigen::Matrix<double, 24, 24> tangent = Eigen::Matrix<double, 24, 24>::Zero();
 };
 
+/// First derivatives of a regular surface contact's state with respect to the 24 DOFs (in
+/// SurfaceContactResult's order), for the kernels that build on the normal contact (Coulomb
+/// friction, surface_friction.hpp), as SplineContactSensitivity is for the spline contact.
+/// surface_contact writes them only when handed this struct.
+struct SurfaceContactSensitivity {
+  /// Whether the fields below belong to the last evaluation: true only for an active pair on
+  /// the regular path (SurfaceDegeneration::None). On a degenerate path, or for an inactive
+  /// pair, false and the fields are left as they were: friction is not evaluated there.
+  bool valid = false;
+  /// dc/dd = -H^-1 D, c = (zeta_A, theta_A, zeta_B, theta_B), H = dr/dc, D = dr/dd (r of eq. 5,
+  /// the gradient of |g|^2 / 2): 4 x 24, per metre (translations) or per unit Rodrigues
+  /// parameter (rotations); theta rows in radians.
+  Eigen::Matrix<double, 4, 24> coordinates = Eigen::Matrix<double, 4, 24>::Zero();
+  /// Gradient of the carried normal force f_n = w f(p, dp/dt) (SurfaceContactResult::force, the
+  /// share w included): df_n/dd = w (-f_p grad g_n + f_pdot grad(dp/dt)) + f grad w, N/m or
+  /// N per unit Rodrigues parameter; the rate term only with SurfacePairRates and a damping law.
+  Eigen::Matrix<double, 24, 1> force = Eigen::Matrix<double, 24, 1>::Zero();
+  /// Gradient of the share w = w_A(zeta_A) w_B(zeta_B) (SurfaceContactResult::share), through
+  /// dzeta/dd above: zero outside the end windows.
+  Eigen::Matrix<double, 24, 1> share = Eigen::Matrix<double, 24, 1>::Zero();
+};
+
 /// Solves the local contact problem (eq. 5) between the surfaces of two beam elements:
 /// r(c) = [Gamma_A,zeta . g, Gamma_A,theta . g, -Gamma_B,zeta . g, -Gamma_B,theta . g] = 0,
 /// g = Gamma_A - Gamma_B, c = (zeta_A, theta_A, zeta_B, theta_B).
@@ -184,18 +206,22 @@ SurfaceProjectionResult surface_projection(const SuperEllipticalCylinder& A,
 /// dependence of c on d); |g| = sqrt(2 Phi*) then gives grad g_n and hess g_n, the residual
 /// -f grad g_n and the tangent f' grad g_n grad g_n^T - f hess g_n. On the degenerate paths the
 /// fixed coordinates' derivatives enter through the reduced problem. `rates` (optional) feeds
-/// normal damping. Writes into `out`; never allocates.
+/// normal damping. `sensitivity` (optional) receives dc/dd and df_n/dd on the regular path
+/// (with or without `options.compute_tangent`); it does not change `out`. Writes into `out`;
+/// never allocates.
 void surface_contact(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
                      const SurfaceProjectionStart& start, const InterfaceLaw& law,
                      SurfaceContactResult& out, const SurfaceContactOptions& options = {},
-                     const SurfacePairRates* rates = nullptr);
+                     const SurfacePairRates* rates = nullptr,
+                     SurfaceContactSensitivity* sensitivity = nullptr);
 
 /// As above, returning the result.
 SurfaceContactResult surface_contact(const SuperEllipticalCylinder& A,
                                      const SuperEllipticalCylinder& B,
                                      const SurfaceProjectionStart& start, const InterfaceLaw& law,
                                      const SurfaceContactOptions& options = {},
-                                     const SurfacePairRates* rates = nullptr);
+                                     const SurfacePairRates* rates = nullptr,
+                                     SurfaceContactSensitivity* sensitivity = nullptr);
 
 /// Name of a degeneration, for messages.
 const char* to_string(SurfaceDegeneration degeneration);
