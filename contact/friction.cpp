@@ -130,7 +130,7 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
     v_rel = rates->velocity_A * w.head<3>() + rates->velocity_B * w.tail<3>();
     out.sliding_velocity = v_rel - n * n.dot(v_rel);
   }
-  out.force = f_c + law.c_t() * out.sliding_velocity;
+  out.force = f_c - law.c_t() * out.sliding_velocity;
   for (int k = 0; k < 6; ++k) {
     out.residual.segment<3>(3 * k) = -w(k) * out.force;
   }
@@ -174,7 +174,7 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
     const Mat3x18 dn = (dg - n * (n.transpose() * dg)) / contact.distance;
     const double vn = n.dot(v_rel);
     const Mat3x18 dvt = dv - n * (n.transpose() * dv) - n * (v_rel.transpose() * dn) - vn * dn;
-    df.noalias() += law.c_t() * dvt;
+    df.noalias() -= law.c_t() * dvt;
   }
 
   // residual = -kron(w, f): tangent = -kron(wa, f) du_a^T - kron(wb, f) du_b^T - kron(w, df).

@@ -44,7 +44,8 @@
 //
 // Tangential damping (optional, c_t >= 0): a dashpot in parallel with the Coulomb element on the
 // relative tangential velocity of the contact points, v_t = (I - n n^T) (v_A(xi_A) - v_B(xi_B))
-// at fixed parameters; f = f_c + c_t v_t. It is not limited by the cone (like the normal law's
+// at fixed parameters; f = f_c - c_t v_t (on A, opposing A's sliding relative to B, as f_c does).
+// It is not limited by the cone (like the normal law's
 // damping, which adds to f_n), so the force stays continuous through stick-slip switches; it
 // enters the tangent through PairRates::velocity_per_displacement as the normal damping does.
 //
@@ -121,7 +122,7 @@ struct SplineFrictionResult {
   Eigen::Vector3d elastic_gap = Eigen::Vector3d::Zero(); ///< trial g_t, metres
   /// v_t, m/s; zero without PairRates or damping.
   Eigen::Vector3d sliding_velocity = Eigen::Vector3d::Zero();
-  /// Friction force on A at its contact point (on B: the opposite), N: f_c + c_t v_t.
+  /// Friction force on A at its contact point (on B: the opposite), N: f_c - c_t v_t.
   Eigen::Vector3d force = Eigen::Vector3d::Zero();
   double slip_function = 0.0;  ///< trial phi = eps_t |g_t| - mu f_n, N
   double slip_increment = 0.0; ///< |g_t| - mu f_n / eps_t when slipping, else 0, metres

@@ -297,7 +297,8 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
                        const Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
                        const ProjectionStart& start, const InterfaceLaw& law,
                        const AllAngleOptions& all_angle, SplineContactResult& out,
-                       const SplineContactOptions& options, SplineContactSensitivity* sensitivity) {
+                       const SplineContactOptions& options, SplineContactSensitivity* sensitivity,
+                       const PairRates* rates) {
   if (sensitivity)
     sensitivity->valid = false;
   const Vector3d chord_a = control_A * (basis_A.values_local(0.5) - basis_A.values_local(-0.5));
@@ -311,7 +312,7 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
   bool tangent_written = false;
   if (out.point_evaluated) {
     spline_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
-                   options, nullptr, sensitivity);
+                   options, rates, sensitivity);
     tangent_written = out.active && options.compute_tangent;
     // Between half the line angle and the line angle the point contact is ill-conditioned and
     // would carry no share: a failed projection there is not the step's fault.
@@ -351,13 +352,26 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
       out.residual.setZero();
       tangent_written = false;
     } else if (out.point_share < 1.0 && out.active) {
-      // s(x) U(x), with U's gradient and Hessian the point contact's residual and tangent.
+      // s(x) U(x), with U's gradient and Hessian the point contact's residual and tangent. With
+      // damping the point force is f = f_el + f_damp and the blended force s r + U grad s: its
+      // derivative holds grad s grad U^T, grad U the elastic part of r (r scaled by f_el / f).
       const double u = out.potential;
       if (options.compute_tangent) {
         const Jet s =
             point_share_jet<18>(control_A, basis_A, ua, control_B, basis_B, ub, all_angle);
+        // grad U = -f_el kron(w, n), w = [N_A(u_A); -N_B(u_B)] (a regular point: the blend zone
+        // lies far above the degenerate path's angle); without damping it is the residual.
+        Eigen::Matrix<double, 18, 1> grad_u = out.residual;
+        if (rates != nullptr) {
+          const double f_el = law.force(out.penetration, 0.0);
+          const Vector3d na = basis_A.values_local(ua), nb = basis_B.values_local(ub);
+          for (int k = 0; k < 3; ++k) {
+            grad_u.segment<3>(3 * k) = -f_el * na(k) * out.normal;
+            grad_u.segment<3>(9 + 3 * k) = f_el * nb(k) * out.normal;
+          }
+        }
         out.tangent *= s.v;
-        out.tangent.noalias() += s.g * out.residual.transpose();
+        out.tangent.noalias() += s.g * grad_u.transpose();
         out.tangent.noalias() += out.residual * s.g.transpose();
         out.tangent += u * s.h;
         out.residual = s.v * out.residual + u * s.g;

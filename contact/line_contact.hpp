@@ -86,12 +86,15 @@ void line_contact(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
 /// (the start's xi when it was not evaluated); status the point contact's, or Converged where
 /// it is not (OutOfRange, not evaluated) but the line part owns Gauss points.
 /// `sensitivity` (optional) receives the point contact's (spline_contact); it is valid only where
-/// the result is the point contact's alone (s = 1, no line point). Never allocates.
+/// the result is the point contact's alone (s = 1, no line point). `rates` (optional) feeds the
+/// law's normal damping to the point part (the blend scales the damped force by s; the line
+/// part is not damped). Never allocates.
 void all_angle_contact(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
                        double radius_A, const Eigen::Matrix3d& control_B,
                        const SegmentBasis& basis_B, double radius_B, const ProjectionStart& start,
                        const InterfaceLaw& law, const AllAngleOptions& all_angle,
                        SplineContactResult& out, const SplineContactOptions& options = {},
-                       SplineContactSensitivity* sensitivity = nullptr);
+                       SplineContactSensitivity* sensitivity = nullptr,
+                       const PairRates* rates = nullptr);
 
 } // namespace yarnsim::contact

@@ -30,10 +30,11 @@ bool ContactStage::update_candidates(const State& state) {
   return changed;
 }
 
-std::string ContactStage::project(const State& state, bool want_tangent) {
+std::string ContactStage::project(const State& state, bool want_tangent,
+                                  const ContactRates* rates) {
   std::string veto;
   for (auto& set : sets_) {
-    std::string why = set->project(state, want_tangent);
+    std::string why = set->project(state, want_tangent, rates);
     if (veto.empty())
       veto = std::move(why);
   }
@@ -113,6 +114,11 @@ std::string ContactStage::formulations() const {
   for (std::size_t k = 0; k < names_.size(); ++k)
     out += (k == 0 ? "" : " and ") + names_[k];
   return out;
+}
+
+bool ContactStage::damped() const {
+  const SplineContactSet* s = spline();
+  return s != nullptr && s->damped();
 }
 
 SplineContactSet* ContactStage::spline() {

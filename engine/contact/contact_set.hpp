@@ -106,6 +106,15 @@ void link_warm_starts(std::vector<Work>& work, const std::vector<Committed>& com
   }
 }
 
+/// Nodal velocities of the iterate, for contact damping (normal damping of the interface law,
+/// tangential damping of friction): implicit dynamic steps only, where the time integrator ties
+/// the velocities to the positions.
+struct ContactRates {
+  const Eigen::Matrix3Xd* velocity = nullptr; ///< 3 x n_nodes, m/s (Newmark's, of the iterate)
+  /// dv/dx of the integrator, 1/s (Newmark: gamma / (beta dt)), for the tangent.
+  double velocity_per_displacement = 0;
+};
+
 /// One contact formulation's stage over all of its definitions in a model.
 class ContactSet {
 public:
@@ -116,8 +125,11 @@ public:
   virtual bool update_candidates(const State& state) = 0;
   /// Narrow phase over the current candidates, in parallel, at the state's current
   /// configuration (positions x, rotations Q(alpha) Q_n). Returns an empty string, or why the
-  /// configuration must be vetoed (a projection of a pair in contact failed or jumped).
-  virtual std::string project(const State& state, bool want_tangent) = 0;
+  /// configuration must be vetoed (a projection of a pair in contact failed or jumped). `rates`
+  /// (dynamic steps, where some definition damps) feeds contact damping; without them damping
+  /// has no effect.
+  virtual std::string project(const State& state, bool want_tangent,
+                              const ContactRates* rates = nullptr) = 0;
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
   /// Node groups of all current candidate pairs, for the sparsity pattern (unused slots repeat a
@@ -141,7 +153,10 @@ public:
   static std::unique_ptr<ContactStage> of(const Model& model);
 
   bool update_candidates(const State& state);
-  std::string project(const State& state, bool want_tangent);
+  std::string project(const State& state, bool want_tangent, const ContactRates* rates = nullptr);
+  /// Whether some definition damps (normal or tangential damping): its project() then wants
+  /// ContactRates on dynamic steps.
+  bool damped() const;
   /// Broad and narrow phase; returns as project().
   std::string evaluate(const State& state, bool want_tangent);
   int candidates_version() const;

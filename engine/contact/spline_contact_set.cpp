@@ -31,6 +31,7 @@ struct SplineContactSet::Definition {
   double line_per_point = 0; ///< line_penalty / penalty, 1/m; 0: 1 / (r_A + r_B) per pair
   std::optional<contact::CoulombFriction> friction; ///< none: frictionless
   bool torsional = false;       ///< torsional friction at the crossings (with `friction`)
+  bool damped = false;          ///< normal damping of the law or tangential damping of friction
   double torsional_radius = 0;  ///< rho, m; 0: from the pair's widths
   double torsional_penalty = 0; ///< k_r, N m/rad; 0: eps_t rho^2
 
@@ -97,7 +98,7 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
     if (def.friction.active()) {
       try {
         d->friction.emplace(def.friction.mu_static, def.friction.mu_kinetic,
-                            def.friction.tangential_penalty);
+                            def.friction.tangential_penalty, def.friction.tangential_damping);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(fmt::format("contact '{}': {}", def.name, e.what()));
       }
@@ -115,6 +116,8 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
         d->torsional_penalty = f.torsional_penalty;
       }
     }
+    d->damped = def.law.damping > 0 || (d->friction && d->friction->c_t() > 0);
+    damped_ = damped_ || d->damped;
     d->boxes.resize(d->spline.size());
     definitions_.push_back(std::move(d));
   }
@@ -128,6 +131,16 @@ std::array<int, 6> SplineContactSet::nodes_of(const Definition& d,
   const auto& b = model_.splines[d.spline[p.second]].nodes;
   const int i = d.segment[p.first], j = d.segment[p.second];
   return {a[i], a[i + 1], a[i + 2], b[j], b[j + 1], b[j + 2]};
+}
+
+void SplineContactSet::pair_velocities(const Definition& d, const broadphase::CandidatePair& p,
+                                       const ContactRates& rates, contact::PairRates& out) const {
+  const std::array<int, 6> n = nodes_of(d, p);
+  for (int k = 0; k < 3; ++k) {
+    out.velocity_A.col(k) = rates.velocity->col(n[k]);
+    out.velocity_B.col(k) = rates.velocity->col(n[3 + k]);
+  }
+  out.velocity_per_displacement = rates.velocity_per_displacement;
 }
 
 void SplineContactSet::control_points(const Definition& d, const broadphase::CandidatePair& p,
@@ -170,7 +183,8 @@ bool SplineContactSet::update_candidates(const State& state) {
   return true;
 }
 
-std::string SplineContactSet::project(const State& state, bool want_tangent) {
+std::string SplineContactSet::project(const State& state, bool want_tangent,
+                                      const ContactRates* rates) {
   const Eigen::Matrix3Xd& x = state.x;
   contact::SplineContactOptions options;
   options.compute_tangent = want_tangent;
@@ -198,15 +212,21 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
           const auto& sa = ca.segment(d.segment[item.pair.first]);
           const auto& sb = cb.segment(d.segment[item.pair.second]);
           contact::SplineContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
+          const contact::PairRates* pair_rates = nullptr;
+          contact::PairRates local_rates;
+          if (rates != nullptr && d.damped) {
+            pair_velocities(d, item.pair, *rates, local_rates);
+            pair_rates = &local_rates;
+          }
           if (d.line_contact) {
             // The first segment of a pair is the line contact's slave.
             contact::AllAngleOptions all_angle = d.all_angle;
             all_angle.line_scale = d.line_per_point > 0 ? d.line_per_point : 1.0 / (ra + rb);
             contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle, item.result,
-                                       options, sensitivity);
+                                       options, sensitivity, pair_rates);
           } else {
             contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options,
-                                    nullptr, sensitivity);
+                                    pair_rates, sensitivity);
           }
         }
       });
@@ -239,9 +259,15 @@ std::string SplineContactSet::project(const State& state, bool want_tangent) {
                 item.history.twist = contact::crossing_angle(A, sa, B, sb, item.result);
               continue;
             }
+            const contact::PairRates* pair_rates = nullptr;
+            contact::PairRates local_rates;
+            if (rates != nullptr && d.damped) {
+              pair_velocities(d, item.pair, *rates, local_rates);
+              pair_rates = &local_rates;
+            }
             contact::spline_friction(A, sa, B, sb, item.result,
                                      want_tangent ? &sensitivity_[w] : nullptr, item.history,
-                                     *d.friction, f, friction_options);
+                                     *d.friction, f, friction_options, pair_rates);
             if (!d.torsional)
               continue;
             contact::TorsionalFrictionResult t;

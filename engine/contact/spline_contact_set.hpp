@@ -33,7 +33,12 @@ public:
   bool empty() const { return definitions_.empty(); }
 
   bool update_candidates(const State& state) override;
-  std::string project(const State& state, bool want_tangent) override;
+  /// With `rates`, definitions that damp (normal damping of the law, tangential damping of
+  /// friction) get their pairs' control-point velocities.
+  std::string project(const State& state, bool want_tangent,
+                      const ContactRates* rates = nullptr) override;
+  /// Whether some definition damps.
+  bool damped() const { return damped_; }
   int candidates_version() const override { return candidates_version_; }
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;
@@ -107,6 +112,9 @@ private:
   /// The pair's control points at positions x (3 x n_nodes, m): A's and B's three, as columns.
   void control_points(const Definition& d, const broadphase::CandidatePair& p,
                       const Eigen::Matrix3Xd& x, Eigen::Matrix3d& A, Eigen::Matrix3d& B) const;
+  /// The pair's control-point velocities from the nodal `rates` (A's three, then B's).
+  void pair_velocities(const Definition& d, const broadphase::CandidatePair& p,
+                       const ContactRates& rates, contact::PairRates& out) const;
   /// summary_ from work_.
   void summarise();
   /// Gives each active frictional point contact the history it holds fixed (serial: a history
@@ -121,6 +129,7 @@ private:
   std::vector<std::unique_ptr<Definition>> definitions_;
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
   bool any_friction_ = false;
+  bool damped_ = false;
   /// Per work item, when a definition has friction: the point contact's sensitivity (valid for
   /// an active point contact alone) and the friction result (active where it was evaluated).
   std::vector<contact::SplineContactSensitivity> sensitivity_;

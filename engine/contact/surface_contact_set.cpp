@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -24,6 +25,7 @@ struct SurfaceContactSet::Definition {
   std::unique_ptr<broadphase::CandidateSearch> search;
   std::shared_ptr<const contact::InterfaceLaw> law;
   std::vector<Eigen::AlignedBox3d> boxes;
+  std::optional<contact::CoulombFriction> friction; ///< none: frictionless
 };
 
 SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
@@ -62,7 +64,25 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
     options.self_contact = false;
     d->search = std::make_unique<broadphase::CandidateSearch>(
         std::move(info), std::vector<std::pair<int, int>>{{0, 1}}, options);
+    if (def.law.damping > 0)
+      throw std::invalid_argument(
+          fmt::format("contact '{}': surface contact damping is not available in this version "
+                      "(found damping = {} N s/m)",
+                      def.name, def.law.damping));
     d->law = make_interface_law(def.law);
+    if (def.friction.active()) {
+      const FrictionParameters& f = def.friction;
+      if (f.tangential_damping > 0 || f.torsional)
+        throw std::invalid_argument(
+            fmt::format("contact '{}': surface contact friction has no {} in this version",
+                        def.name, f.torsional ? "torsional friction" : "tangential damping"));
+      try {
+        d->friction.emplace(f.mu_static, f.mu_kinetic, f.tangential_penalty);
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(fmt::format("contact '{}': {}", def.name, e.what()));
+      }
+      any_friction_ = true;
+    }
     d->boxes.resize(d->surface.size());
     definitions_.push_back(std::move(d));
   }
@@ -129,73 +149,108 @@ bool SurfaceContactSet::update_candidates(const State& state) {
   return true;
 }
 
-std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
+std::string SurfaceContactSet::project(const State& state, bool want_tangent,
+                                       const ContactRates* /*rates*/) {
   contact::SurfaceContactOptions options;
   options.compute_tangent = want_tangent;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 8),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t w = range.begin(); w != range.end(); ++w) {
-                        Work& item = work_[w];
-                        const Definition& d = *definitions_[item.definition];
-                        contact::SurfaceProjectionStart start;
-                        if (item.warm >= 0) {
-                          const Snapshot::Warm& c = committed_[item.warm];
-                          start = {c.zeta_A, c.theta_A, c.zeta_B, c.theta_B, true};
-                        }
-                        try {
-                          const auto A = cylinder(d, item.pair.first, state);
-                          const auto B = cylinder(d, item.pair.second, state);
-                          contact::surface_contact(A, B, start, *d.law, item.result, options);
-                          if (item.result.status == contact::ProjectionStatus::Jumped) {
-                            // The warm start led far away. Where the last solution has vanished
-                            // (two critical points of the distance met and annihilated, as happens
-                            // on the flat faces of wide ellipses), no smaller step brings it back:
-                            // the solution a cold start finds from the geometry alone is then the
-                            // pair's contact. The jump stands (and vetoes the increment) only if
-                            // the cold start finds another point.
-                            const contact::SurfaceContactResult& warm = item.result;
-                            const auto cold = contact::surface_contact(A, B, {}, *d.law, options);
-                            const double tolerance = 1e-6;
-                            if (cold.status == contact::ProjectionStatus::Converged &&
-                                std::abs(cold.zeta_A - warm.zeta_A) < tolerance &&
-                                std::abs(cold.zeta_B - warm.zeta_B) < tolerance &&
-                                std::abs(std::remainder(cold.theta_A - warm.theta_A,
-                                                        2 * std::numbers::pi)) < tolerance &&
-                                std::abs(std::remainder(cold.theta_B - warm.theta_B,
-                                                        2 * std::numbers::pi)) < tolerance)
-                              item.result = cold;
-                          }
-                        } catch (const std::invalid_argument&) {
-                          // Non-finite node data (a diverging iterate): the pair cannot be
-                          // projected.
-                          item.result = {};
-                          item.result.status = contact::ProjectionStatus::NotConverged;
-                        }
-                      }
-                    });
+  if (any_friction_) {
+    sensitivity_.resize(work_.size());
+    friction_.resize(work_.size());
+  }
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, work_.size(), 8),
+      [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t w = range.begin(); w != range.end(); ++w) {
+          Work& item = work_[w];
+          const Definition& d = *definitions_[item.definition];
+          contact::SurfaceContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
+          contact::SurfaceProjectionStart start;
+          if (item.warm >= 0) {
+            const Snapshot::Warm& c = committed_[item.warm];
+            start = {c.zeta_A, c.theta_A, c.zeta_B, c.theta_B, true};
+          }
+          try {
+            const auto A = cylinder(d, item.pair.first, state);
+            const auto B = cylinder(d, item.pair.second, state);
+            contact::surface_contact(A, B, start, *d.law, item.result, options, nullptr,
+                                     sensitivity);
+            if (item.result.status == contact::ProjectionStatus::Jumped) {
+              // The warm start led far away. Where the last solution has vanished (two critical
+              // points of the distance met and annihilated, as happens on the flat faces of
+              // wide ellipses), no smaller step brings it back: the solution a cold start finds
+              // from the geometry alone is then the pair's contact. The jump stands (and vetoes
+              // the increment) only if the cold start finds another point.
+              const contact::SurfaceContactResult& warm = item.result;
+              contact::SurfaceContactSensitivity cold_sensitivity;
+              const auto cold = contact::surface_contact(A, B, {}, *d.law, options, nullptr,
+                                                         sensitivity ? &cold_sensitivity : nullptr);
+              const double tolerance = 1e-6;
+              if (cold.status == contact::ProjectionStatus::Converged &&
+                  std::abs(cold.zeta_A - warm.zeta_A) < tolerance &&
+                  std::abs(cold.zeta_B - warm.zeta_B) < tolerance &&
+                  std::abs(std::remainder(cold.theta_A - warm.theta_A, 2 * std::numbers::pi)) <
+                      tolerance &&
+                  std::abs(std::remainder(cold.theta_B - warm.theta_B, 2 * std::numbers::pi)) <
+                      tolerance) {
+                item.result = cold;
+                if (sensitivity)
+                  *sensitivity = cold_sensitivity;
+              }
+            }
+          } catch (const std::invalid_argument&) {
+            // Non-finite node data (a diverging iterate): the pair cannot be projected.
+            item.result = {};
+            item.result.status = contact::ProjectionStatus::NotConverged;
+            if (sensitivity)
+              sensitivity->valid = false;
+          }
+        }
+      });
 
   share_split_contacts();
-  summary_ = {};
-  summary_.candidates = static_cast<int>(work_.size());
-  summary_.min_gap = std::numeric_limits<double>::infinity();
-  double active_share = 0;
-  for (const Work& w : work_) {
-    const auto& r = w.result;
-    if (r.status == contact::ProjectionStatus::Converged)
-      summary_.min_gap = std::min(summary_.min_gap, r.gap);
-    if (!r.active)
-      continue;
-    summary_.active_set =
-        fold_active_pair(summary_.active_set | 1, w.definition, w.pair.first, w.pair.second);
-    // Contact points: a contact near a node, held by two pairs, counts once in all (their
-    // shares sum to one).
-    active_share += w.factor * r.share;
-    summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
-    summary_.max_force = std::max(summary_.max_force, w.factor * r.force);
-    summary_.potential += w.factor * r.potential;
-    summary_.total_force += w.factor * r.force;
+
+  if (any_friction_) {
+    // Friction at the active regular contacts, on the histories of the last converged
+    // increment (held fixed through the iterations): the committed one of the pair, or a first
+    // touch. Near a node both elements' pairs hold the contact with their shares, each with its
+    // own anchor (contact/surface_friction.hpp), so no history is handed over.
+    for (std::size_t w = 0; w < work_.size(); ++w) {
+      Work& item = work_[w];
+      item.first_touch = false;
+      if (!definitions_[item.definition]->friction || !item.result.active || !sensitivity_[w].valid)
+        continue;
+      const Snapshot::Warm* c = item.warm >= 0 ? &committed_[item.warm] : nullptr;
+      if (c != nullptr && c->friction != 0) {
+        item.history = {c->anchor_zeta_A, c->anchor_theta_A, c->anchor_zeta_B, c->anchor_theta_B,
+                        c->friction == 1};
+        item.slip = c->slip;
+      } else {
+        item.history = contact::first_touch(item.result);
+        item.slip = 0;
+        item.first_touch = true;
+      }
+    }
+    contact::FrictionOptions friction_options;
+    friction_options.compute_tangent = want_tangent;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, work_.size(), 8),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+          for (std::size_t w = range.begin(); w != range.end(); ++w) {
+            const Work& item = work_[w];
+            const Definition& d = *definitions_[item.definition];
+            contact::SurfaceFrictionResult& f = friction_[w];
+            f.active = false;
+            if (!d.friction || !item.result.active || !sensitivity_[w].valid || item.first_touch)
+              continue;
+            const auto A = cylinder(d, item.pair.first, state);
+            const auto B = cylinder(d, item.pair.second, state);
+            contact::surface_friction(A, B, item.result, want_tangent ? &sensitivity_[w] : nullptr,
+                                      item.history, *d.friction, f, friction_options);
+          }
+        });
   }
-  summary_.active = static_cast<int>(std::lround(active_share));
+
+  summarise();
 
   // Veto: a pair in contact at the last converged increment, or now, whose projection failed or
   // jumped.
@@ -219,6 +274,51 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent) {
     }
   }
   return {};
+}
+
+void SurfaceContactSet::summarise() {
+  summary_ = {};
+  summary_.candidates = static_cast<int>(work_.size());
+  summary_.min_gap = std::numeric_limits<double>::infinity();
+  double active_share = 0;
+  for (const Work& w : work_) {
+    const auto& r = w.result;
+    if (r.status == contact::ProjectionStatus::Converged)
+      summary_.min_gap = std::min(summary_.min_gap, r.gap);
+    if (!r.active)
+      continue;
+    summary_.active_set =
+        fold_active_pair(summary_.active_set | 1, w.definition, w.pair.first, w.pair.second);
+    // Contact points: a contact near a node, held by two pairs, counts once in all (their
+    // shares sum to one).
+    active_share += w.factor * r.share;
+    summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);
+    summary_.max_force = std::max(summary_.max_force, w.factor * r.force);
+    summary_.potential += w.factor * r.potential;
+    summary_.total_force += w.factor * r.force;
+  }
+  summary_.active = static_cast<int>(std::lround(active_share));
+  summary_.dissipation = dissipated_;
+  if (!any_friction_)
+    return;
+  for (std::size_t k = 0; k < friction_.size(); ++k) {
+    const contact::SurfaceFrictionResult& f = friction_[k];
+    if (!f.active)
+      continue;
+    const Work& w = work_[k];
+    ++(f.slipping ? summary_.slip : summary_.stick);
+    // A stick/slip switch is a kink of the law, as a pair that opens or closes.
+    if (f.slipping)
+      summary_.active_set =
+          fold_active_pair(summary_.active_set, -1 - w.definition, w.pair.first, w.pair.second);
+    summary_.tangential_force += w.factor * f.force.norm();
+    // The spring's elastic energy |f|^2 / (2 w eps_t) (penalty w eps_t, the share w).
+    const double share = w.result.share;
+    if (share > 0)
+      summary_.potential += w.factor * f.force.squaredNorm() /
+                            (2.0 * share * definitions_[w.definition]->friction->eps_t());
+    summary_.dissipation += w.factor * f.dissipation;
+  }
 }
 
 void SurfaceContactSet::share_split_contacts() {
@@ -293,8 +393,24 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
         residual.segment<3>(6 * node + 3) +=
             w * item.result.residual.segment<3>(12 * X + 6 + 3 * k);
       }
-    if (want_tangent)
-      assembler.add_surface_pair_block(n, item.result.tangent, w);
+    const std::size_t k = static_cast<std::size_t>(&item - work_.data());
+    const contact::SurfaceFrictionResult* f =
+        any_friction_ && friction_[k].active ? &friction_[k] : nullptr;
+    if (f)
+      for (int X = 0; X < 2; ++X)
+        for (int j = 0; j < 2; ++j) {
+          const int node = n[2 * X + j];
+          residual.segment<3>(6 * node) += w * f->residual.segment<3>(12 * X + 3 * j);
+          residual.segment<3>(6 * node + 3) += w * f->residual.segment<3>(12 * X + 6 + 3 * j);
+        }
+    if (want_tangent) {
+      if (f) {
+        const Eigen::Matrix<double, 24, 24> block = item.result.tangent + f->tangent;
+        assembler.add_surface_pair_block(n, block, w);
+      } else {
+        assembler.add_surface_pair_block(n, item.result.tangent, w);
+      }
+    }
   }
 }
 
@@ -307,8 +423,29 @@ void SurfaceContactSet::commit() {
     if (r.status == contact::ProjectionStatus::NotConverged)
       continue;
     item.warm = static_cast<int>(next_committed_.size());
-    next_committed_.push_back({Key{item.definition, item.pair.first, item.pair.second}, r.zeta_A,
-                               r.theta_A, r.zeta_B, r.theta_B, r.active});
+    Snapshot::Warm& warm = next_committed_.emplace_back(
+        Snapshot::Warm{Key{item.definition, item.pair.first, item.pair.second}, r.zeta_A, r.theta_A,
+                       r.zeta_B, r.theta_B, r.active});
+    const std::size_t k = static_cast<std::size_t>(&item - work_.data());
+    const contact::SurfaceFrictionHistory* h = nullptr;
+    if (any_friction_ && friction_[k].active) {
+      const contact::SurfaceFrictionResult& f = friction_[k];
+      h = &f.history;
+      warm.friction = f.slipping ? 2 : 1;
+      warm.slip = item.slip + f.slip_increment;
+      dissipated_ += item.factor * f.dissipation;
+    } else if (any_friction_ && item.first_touch) {
+      // Closed in this increment: anchored where it is, stuck.
+      h = &item.history;
+      warm.friction = 1;
+      warm.slip = 0;
+    }
+    if (h) {
+      warm.anchor_zeta_A = h->zeta_A;
+      warm.anchor_theta_A = h->theta_A;
+      warm.anchor_zeta_B = h->zeta_B;
+      warm.anchor_theta_B = h->theta_B;
+    }
   }
   std::swap(committed_, next_committed_);
 }
@@ -330,6 +467,13 @@ std::vector<ContactPoint> SurfaceContactSet::points() const {
     p.body = {a, b};
     p.segment = {model_.surfaces[a].elements[d.position[w.pair.first]],
                  model_.surfaces[b].elements[d.position[w.pair.second]]};
+    const std::size_t k = static_cast<std::size_t>(&w - work_.data());
+    if (any_friction_ && friction_[k].active) {
+      const contact::SurfaceFrictionResult& f = friction_[k];
+      p.tangential_force = w.factor * f.force;
+      p.friction = f.slipping ? 2 : 1;
+      p.slip = w.slip + f.slip_increment;
+    }
   }
   return out;
 }
@@ -366,6 +510,7 @@ SurfaceContactSet::Snapshot SurfaceContactSet::snapshot() const {
   }
   out.candidates_version = candidates_version_;
   out.summary = summary_;
+  out.dissipated = dissipated_;
   return out;
 }
 
@@ -435,6 +580,13 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
   link_warm_starts(work_, committed_);
   candidates_version_ = snapshot.candidates_version;
   summary_ = snapshot.summary;
+  dissipated_ = snapshot.dissipated;
+  // The friction results are not saved: the next evaluation computes them (the saved summary
+  // holds their figures until then).
+  if (any_friction_) {
+    sensitivity_.assign(work_.size(), {});
+    friction_.assign(work_.size(), {});
+  }
 }
 
 } // namespace yarnsim

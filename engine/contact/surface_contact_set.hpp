@@ -2,12 +2,15 @@
 // The surface-to-surface contact stage (formulation.md §6, the paper's "Surface" model): on each
 // element of a surface a super-elliptical cylinder between its end nodes; candidate element pairs
 // from the FCL-backed search; the four-unknown local contact problem of every candidate in
-// parallel, warm-started from the last converged increment; assembly of the active pairs' 24 x 24
-// blocks (translations and rotations of the four end nodes) in sorted order.
+// parallel, warm-started from the last converged increment; Coulomb friction at the active
+// contact points of definitions that have it (contact/surface_friction.hpp: anchors committed
+// with converged increments); assembly of the active pairs' 24 x 24 blocks (translations and
+// rotations of the four end nodes) in sorted order.
 
 #include "broadphase/candidate_search.hpp"
 #include "contact/interface_law.hpp"
 #include "contact/surface_contact.hpp"
+#include "contact/surface_friction.hpp"
 #include "engine/contact/contact_set.hpp"
 
 #include <Eigen/Core>
@@ -25,7 +28,10 @@ public:
   ~SurfaceContactSet() override;
 
   bool update_candidates(const State& state) override;
-  std::string project(const State& state, bool want_tangent) override;
+  /// Surface contact has no damping in this version (the constructor refuses a damped law):
+  /// `rates` is not used.
+  std::string project(const State& state, bool want_tangent,
+                      const ContactRates* rates = nullptr) override;
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;
@@ -45,6 +51,12 @@ public:
       std::array<int, 3> key; ///< definition, first, second segment id
       double zeta_A, theta_A, zeta_B, theta_B;
       bool active;
+      /// Friction history of an active contact with friction (surface_friction.hpp): the anchor
+      /// (convective coordinates on the two surfaces), the slip accumulated since the point
+      /// closed (m), and friction = 1 stuck, 2 slipping, 0 none.
+      double anchor_zeta_A = 0, anchor_theta_A = 0, anchor_zeta_B = 0, anchor_theta_B = 0;
+      double slip = 0;
+      int friction = 0;
     };
     /// A candidate, the scalar part of its last SurfaceContactResult and its share factor.
     struct Pair {
@@ -62,6 +74,7 @@ public:
     std::vector<Pair> pairs;                                    ///< the work list, in order
     int candidates_version = 0;
     ContactSummary summary; ///< of the last evaluation
+    double dissipated = 0;  ///< J, by friction over the completed increments
   };
   Snapshot snapshot() const;
   /// Puts a snapshot of a set of the same model back. Throws std::invalid_argument when it does
@@ -78,6 +91,13 @@ private:
     /// valley (share_split_contacts); 1 elsewhere.
     double factor = 1.0;
     int warm = -1; ///< index of its warm start in committed_, or -1 (link_warm_starts)
+    /// Friction of an active contact: the history this evaluation holds fixed (its committed
+    /// one, or a first touch) and the slip accumulated before this increment, m. A contact that
+    /// closed in this increment carries no friction until the increment converges, which
+    /// anchors it where it closed (as in SplineContactSet).
+    contact::SurfaceFrictionHistory history{};
+    double slip = 0;
+    bool first_touch = false;
   };
   using Key = std::array<int, 3>; ///< definition, first, second segment id
 
@@ -86,6 +106,8 @@ private:
   /// Shares one contact between two pairs whose points lie close together on either side of a
   /// node (a valley between two elements' cylinders).
   void share_split_contacts();
+  /// summary_ from work_ (and the friction results).
+  void summarise();
   /// The cylinder of segment s of definition d at the state's configuration.
   contact::SuperEllipticalCylinder cylinder(const Definition& d, int s, const State& state) const;
 
@@ -98,6 +120,12 @@ private:
   /// Warm starts of the last converged increment's candidates, sorted by key.
   std::vector<Snapshot::Warm> committed_;
   std::vector<Snapshot::Warm> next_committed_; ///< commit()'s buffer, kept for its capacity
+  bool any_friction_ = false;
+  /// Per work item, when a definition has friction: the contact's sensitivity (valid for an
+  /// active regular contact) and the friction result (active where it was evaluated).
+  std::vector<contact::SurfaceContactSensitivity> sensitivity_;
+  std::vector<contact::SurfaceFrictionResult> friction_;
+  double dissipated_ = 0; ///< J, by friction over the committed increments
   int candidates_version_ = 0;
   ContactSummary summary_;
 };

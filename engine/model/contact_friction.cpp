@@ -29,12 +29,13 @@ void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParame
                           friction.mu_static, friction.mu_kinetic));
   }
   if (!friction.active()) {
-    for (const char* key :
-         {"tangential_penalty", "torsional_friction", "torsional_radius", "torsional_penalty"})
+    for (const char* key : {"tangential_penalty", "tangential_damping", "torsional_friction",
+                            "torsional_radius", "torsional_penalty"})
       if (t.present(key))
         t.error(key, fmt::format("'{}' applies only with friction (a coefficient above 0)", key));
     return;
   }
+  friction.tangential_damping = t.number("tangential_damping").value_or(0);
   friction.torsional = t.boolean("torsional_friction").value_or(false);
   for (const char* key : {"torsional_radius", "torsional_penalty"})
     if (t.present(key) && !friction.torsional)

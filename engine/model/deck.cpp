@@ -214,6 +214,7 @@ constexpr KeySpec kContactKeys[] = {
     {"static_friction", Type::Number, kOptional, kNonNegative},
     {"kinetic_friction", Type::Number, kOptional, kNonNegative},
     {"tangential_penalty", Type::Number, kOptional, kPositive},
+    {"tangential_damping", Type::Number, kOptional, kNonNegative},
     {"torsional_friction", Type::Boolean},
     {"torsional_radius", Type::Number, kOptional, kPositive},
     {"torsional_penalty", Type::Number, kOptional, kPositive},
@@ -895,6 +896,8 @@ private:
         dynamic_step_ = dynamic_step_ ? dynamic_step_ : &t;
       if (known_type && step.type == StepType::Explicit)
         explicit_step_ = explicit_step_ ? explicit_step_ : &t;
+      if (known_type && step.type == StepType::Dynamic)
+        newmark_step_ = newmark_step_ ? newmark_step_ : &t;
 
       const auto end = t.number("end_time");
       if (end && start && *end <= *start)
@@ -1460,14 +1463,28 @@ private:
     }
   }
 
+  /// Contact damping (the law's normal `damping`, friction's `tangential_damping`) acts through
+  /// the velocities of implicit dynamic steps: reported at the key when the deck has an explicit
+  /// step (not available there) or no dynamic step (it would act on nothing).
+  void contact_damping_steps(const CheckedTable& t, double normal, double tangential) const {
+    for (const auto& [key, value] :
+         {std::pair<const char*, double>{"damping", normal}, {"tangential_damping", tangential}}) {
+      if (!(value > 0))
+        continue;
+      if (explicit_step_ != nullptr)
+        t.error(key, fmt::format("contact damping is not available on the explicit path in this "
+                                 "version ({} is explicit)",
+                                 explicit_step_->path()));
+      else if (newmark_step_ == nullptr)
+        t.error(key, "contact damping acts on the velocities of dynamic steps, and this deck has "
+                     "none (static steps have no velocities); remove the key or set it to 0");
+    }
+  }
+
   /// The normal interface law (formulation.md §4): linear penalty or power law.
   void contact_law(const CheckedTable& t, InterfaceLawParameters& law) const {
     law.penalty = t.number("penalty").value_or(0);
     law.damping = t.number("damping").value_or(0);
-    // The contact stage receives no velocities: a damping would be read and never applied.
-    if (law.damping > 0)
-      t.error("damping", "contact damping is not applied in this version (the contact stage "
-                         "receives no velocities); remove the key or set it to 0");
     const std::optional<std::string> name =
         t.present("law") ? t.string("law") : std::optional<std::string>("linear");
     if (name == "linear") {
@@ -1519,19 +1536,34 @@ private:
         c.name = name;
         contact_groups(t, {surface_names_, "surface", "[[surfaces]]"}, c.group_a, c.group_b);
         contact_law(t, c.law);
+        if (c.law.damping > 0)
+          t.error("damping", "surface contact damping is not available in this version; "
+                             "remove the key or set it to 0");
         if (t.present("self_contact"))
           t.error("self_contact", "'self_contact' applies only to type = \"spline\"");
         for (const char* key :
              {"line_contact", "line_angle", "point_angle", "line_penalty", "gauss_points"})
           if (t.present(key))
             t.error(key, fmt::format("'{}' applies only to type = \"spline\"", key));
+        // Pointwise friction; no tangential damping and no torsional friction on this contact.
+        bool spline_only = false;
         for (const char* key :
-             {"friction", "static_friction", "kinetic_friction", "tangential_penalty",
-              "torsional_friction", "torsional_radius", "torsional_penalty"})
-          if (t.present(key))
-            t.error(key, fmt::format("'{}': friction is available for spline contact only; "
-                                     "surface contact is frictionless in this version",
+             {"tangential_damping", "torsional_friction", "torsional_radius", "torsional_penalty"})
+          if (t.present(key)) {
+            t.error(key, fmt::format("'{}' applies only to type = \"spline\" (surface contact "
+                                     "friction is pointwise Coulomb friction alone in this "
+                                     "version)",
                                      key));
+            spline_only = true;
+          }
+        if (!spline_only)
+          read_contact_friction(t, c.law, c.friction);
+        if (c.friction.active() && explicit_step_ != nullptr)
+          t.error(t.present("friction") ? "friction" : "static_friction",
+                  fmt::format("friction is not available on the explicit path in this version "
+                              "({} is explicit): its energy balance does not close "
+                              "(docs/formulation.md, \"Friction\")",
+                              explicit_step_->path()));
         c.margin = t.number("margin").value_or(0);
         model_.surface_contacts.push_back(std::move(c));
         continue;
@@ -1547,6 +1579,7 @@ private:
                             "is explicit): its energy balance does not close (docs/formulation.md, "
                             "\"Friction\")",
                             explicit_step_->path()));
+      contact_damping_steps(t, c.law.damping, c.friction.tangential_damping);
       c.self_contact = t.boolean("self_contact").value_or(false);
       c.margin = t.number("margin").value_or(0);
       c.line_contact = t.boolean("line_contact").value_or(true);
@@ -1632,6 +1665,7 @@ private:
   bool elements_broken_ = false;
   const CheckedTable* dynamic_step_ = nullptr;
   const CheckedTable* explicit_step_ = nullptr;
+  const CheckedTable* newmark_step_ = nullptr; ///< the first implicit dynamic step
 };
 
 } // namespace

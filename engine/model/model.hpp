@@ -166,6 +166,9 @@ struct FrictionParameters {
   double mu_static = 0;          ///< -
   double mu_kinetic = 0;         ///< -, <= mu_static
   double tangential_penalty = 0; ///< N/m, > 0 when there is friction
+  /// c_t, N s/m: a dashpot on the tangential sliding velocity beside the Coulomb element
+  /// (contact/friction.hpp); dynamic steps only (the velocities of the time integrator).
+  double tangential_damping = 0;
   /// Torsional friction at crossings (contact/torsional_friction.hpp): a friction torque about
   /// the normal, bounded by mu f_n rho, with the same coefficients.
   bool torsional = false;
@@ -219,6 +222,9 @@ struct SurfaceContactDefinition {
   std::vector<int> group_a, group_b;
   InterfaceLawParameters law;
   double margin = 0; ///< m, broad-phase box inflation beyond the section; 0: the larger semi-axis
+  /// Coulomb friction at the contact points (contact/surface_friction.hpp): the coefficients and
+  /// the tangential penalty; no tangential damping and no torsional friction on this contact.
+  FrictionParameters friction{};
 };
 
 /// A virtual biaxial tension test on a fabric (paper §5): which node sets hold the yarn ends, so
@@ -267,6 +273,9 @@ Section section_from_shape(std::string name, SectionShape shape, double a, doubl
 /// Whether any contact of the model has friction.
 inline bool has_friction(const Model& model) {
   for (const SplineContactDefinition& c : model.spline_contacts)
+    if (c.friction.active())
+      return true;
+  for (const SurfaceContactDefinition& c : model.surface_contacts)
     if (c.friction.active())
       return true;
   return false;

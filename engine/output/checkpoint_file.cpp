@@ -131,6 +131,13 @@ void write_surface_contact(hid_t parent, const SurfaceContactSet::Snapshot& c) {
   h5::write_double_attribute(g, "summary_potential", m.potential);
   h5::write_double_attribute(g, "summary_total_force", m.total_force);
   h5::write_double_attribute(g, "summary_min_gap", m.min_gap);
+  // Friction (written by versions with surface friction): the summary's figures, the histories
+  // (anchor zeta_A, theta_A, zeta_B, theta_B, slip, state) and the dissipated energy.
+  h5::write_int_attribute(g, "summary_stick", m.stick);
+  h5::write_int_attribute(g, "summary_slip", m.slip);
+  h5::write_double_attribute(g, "summary_tangential_force", m.tangential_force);
+  h5::write_double_attribute(g, "summary_dissipation", m.dissipation);
+  h5::write_double_attribute(g, "friction_dissipated", c.dissipated);
   std::vector<int> keys;
   std::vector<double> values;
   for (const auto& w : c.committed) {
@@ -139,6 +146,11 @@ void write_surface_contact(hid_t parent, const SurfaceContactSet::Snapshot& c) {
   }
   write_table(g, "committed_keys", keys, 3);
   write_table(g, "committed", values, 5);
+  values.clear();
+  for (const auto& w : c.committed)
+    values.insert(values.end(), {w.anchor_zeta_A, w.anchor_theta_A, w.anchor_zeta_B,
+                                 w.anchor_theta_B, w.slip, static_cast<double>(w.friction)});
+  write_table(g, "committed_friction", values, 6);
   keys.clear();
   values.clear();
   std::vector<int> flags;
@@ -334,6 +346,28 @@ SurfaceContactSet::Snapshot read_surface_contact(hid_t parent) {
     const double* v = &values[5 * i];
     c.committed.push_back(
         {{keys[3 * i], keys[3 * i + 1], keys[3 * i + 2]}, v[0], v[1], v[2], v[3], v[4] != 0.0});
+  }
+  if (h5::exists(g, "committed_friction")) {
+    m.stick = h5::read_int_attribute(g, "summary_stick");
+    m.slip = h5::read_int_attribute(g, "summary_slip");
+    m.tangential_force = h5::read_double_attribute(g, "summary_tangential_force");
+    m.dissipation = h5::read_double_attribute(g, "summary_dissipation");
+    c.dissipated = h5::read_double_attribute(g, "friction_dissipated");
+    const std::vector<double> friction =
+        read_table(g, "committed_friction", static_cast<long>(c.committed.size()), 6);
+    for (std::size_t i = 0; i < c.committed.size(); ++i) {
+      auto& w = c.committed[i];
+      const double* f = &friction[6 * i];
+      w.anchor_zeta_A = f[0];
+      w.anchor_theta_A = f[1];
+      w.anchor_zeta_B = f[2];
+      w.anchor_theta_B = f[3];
+      w.slip = f[4];
+      w.friction = static_cast<int>(f[5]);
+      if (w.friction < 0 || w.friction > 2)
+        throw RestartError(fmt::format(
+            "checkpoint: committed surface contact {} has friction state {}", i, w.friction));
+    }
   }
   keys = read_int_table(g, "pair_keys", 3);
   const long n = static_cast<long>(keys.size() / 3);

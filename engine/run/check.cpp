@@ -87,9 +87,17 @@ std::string check_report(const Model& model) {
                        c.self_contact ? " (self contact)" : "", law_text(c.law), 1e3 * c.margin,
                        friction + torsion);
   }
-  for (const SurfaceContactDefinition& c : model.surface_contacts)
-    out += fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm\n", c.name,
-                       c.group_a.size(), c.group_b.size(), law_text(c.law), 1e3 * c.margin);
+  for (const SurfaceContactDefinition& c : model.surface_contacts) {
+    const FrictionParameters& f = c.friction;
+    const std::string friction =
+        !f.active()
+            ? std::string(", frictionless")
+            : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, tangential penalty {:.6g} N/m",
+                          f.mu_static, f.mu_kinetic, f.tangential_penalty);
+    out +=
+        fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm{}\n", c.name,
+                    c.group_a.size(), c.group_b.size(), law_text(c.law), 1e3 * c.margin, friction);
+  }
   if (const ContactStage* contact = sim.contact()) {
     if (const SplineContactSet* s = contact->spline())
       out += contact_set_line("spline", *s);

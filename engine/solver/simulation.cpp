@@ -150,6 +150,13 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   reactions_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n);
   load_n_ = external_loads(0.0);
   graph_ = std::make_unique<IterationGraph>(*this);
+  if (contact_ && contact_->damped())
+    for (std::size_t k = 0; k < model.steps.size(); ++k)
+      if (model.steps[k].type == StepType::Explicit)
+        throw std::invalid_argument(fmt::format(
+            "step {} is explicit: contact damping (normal or tangential) is not available on "
+            "the explicit path in this version",
+            k + 1));
   if (contact_) {
     // The clearance each formulation sees before loading (the spline passes inside the
     // interior nodes, so it differs from the nominal gap between the yarn surfaces).
@@ -234,7 +241,9 @@ struct Simulation::IterationGraph {
                [&s](const tbb::flow::continue_msg&) {
                  const auto t0 = std::chrono::steady_clock::now();
                  if (s.contact_)
-                   s.iteration_.veto = s.contact_->project(s.state_, s.iteration_.want_tangent);
+                   s.iteration_.veto = s.contact_->project(
+                       s.state_, s.iteration_.want_tangent,
+                       s.iteration_.rates.velocity ? &s.iteration_.rates : nullptr);
                  s.stage_times_.narrow_phase += seconds_since(t0);
                }),
         beams(graph,
@@ -291,9 +300,19 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
     }
     damping = {step.rayleigh_stiffness, nm.a4, &damping_velocity_};
   }
+  // Contact damping's velocities: Newmark's of the iterate, v = a4 (x - x_n) + a5 v_n + a6 a_n,
+  // dv/dx = a4 (static steps have none: damping then acts on nothing).
+  ContactRates rates;
+  if (dynamic && contact_ && contact_->damped()) {
+    contact_velocity_.resize(3, n);
+    for (int i = 0; i < n; ++i)
+      contact_velocity_.col(i) = nm.a4 * (state_.x.col(i) - state_.x_n.col(i)) +
+                                 nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
+    rates = {&contact_velocity_, nm.a4};
+  }
   // The iteration's task graph: broad phase -> (narrow phase || beam assembly) -> contact
   // assembly.
-  iteration_ = {&residual, damping, want_tangent, {}, 0.0, 0.0};
+  iteration_ = {&residual, damping, want_tangent, {}, rates, 0.0, 0.0};
   const auto graph_start = std::chrono::steady_clock::now();
   graph_->run();
   stage_times_.iteration_graph +=

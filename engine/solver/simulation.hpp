@@ -246,8 +246,9 @@ private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
   bool floor_reported_ = false;                     ///< the round-off floor notice was given
   Eigen::VectorXd damping_velocity_;                ///< 6 n_nodes, stiffness damping's velocities
-  Eigen::VectorXd rhs_;                             ///< minus the residual over the free equations
-  Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1
+  Eigen::Matrix3Xd contact_velocity_; ///< 3 x n_nodes, m/s: the iterate's, for contact damping
+  Eigen::VectorXd rhs_;               ///< minus the residual over the free equations
+  Eigen::VectorXd equation_weight_;   ///< per free equation: 1 / shortest element (m^-1) or 1
   int total_iterations_ = 0;
   StageTimes stage_times_;
   double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();
@@ -259,6 +260,7 @@ private:
     StiffnessDamping damping;
     bool want_tangent = true;
     std::string veto;      ///< why the contact stage vetoes the configuration
+    ContactRates rates;    ///< contact damping's velocities (velocity null: none)
     double ref_force = 0;  ///< largest nodal internal force, N
     double ref_moment = 0; ///< largest nodal internal moment, N m
   };

@@ -135,6 +135,7 @@ constexpr KeySpec kContactKeys[] = {
     {"static_friction", Type::Number, kOptional, kNonNegative},
     {"kinetic_friction", Type::Number, kOptional, kNonNegative},
     {"tangential_penalty", Type::Number, kOptional, kPositive},
+    {"tangential_damping", Type::Number, kOptional, kNonNegative},
     {"torsional_friction", Type::Boolean},
     {"torsional_radius", Type::Number, kOptional, kPositive},
     {"torsional_penalty", Type::Number, kOptional, kPositive},
@@ -271,13 +272,34 @@ public:
     if (contact) {
       read_contact_friction(*contact, law, friction);
       const char* key = contact->present("friction") ? "friction" : "static_friction";
-      if (friction.active() && formulation == ContactFormulation::Surface)
-        contact->error(key, "friction is available for spline contact only; surface contact is "
-                            "frictionless in this version");
+      if (formulation == ContactFormulation::Surface)
+        for (const char* spline_only :
+             {"tangential_damping", "torsional_friction", "torsional_radius", "torsional_penalty"})
+          if (contact->present(spline_only))
+            contact->error(spline_only,
+                           fmt::format("'{}' applies only to type = \"spline\" (surface contact "
+                                       "friction is pointwise Coulomb friction alone in this "
+                                       "version)",
+                                       spline_only));
       if (friction.active() && test && test->type == StepType::Explicit)
         contact->error(key, "friction is not available on the explicit path in this version "
                             "([biaxial] type = \"explicit\"): its energy balance does not close "
                             "(docs/formulation.md, \"Friction\")");
+      // Contact damping acts through the velocities of implicit dynamic steps.
+      for (const auto& [damping, value] : {std::pair<const char*, double>{"damping", law.damping},
+                                           {"tangential_damping", friction.tangential_damping}}) {
+        if (!(value > 0))
+          continue;
+        if (formulation == ContactFormulation::Surface && std::string_view(damping) == "damping")
+          contact->error(damping, "surface contact damping is not available in this version; "
+                                  "remove the key or set it to 0");
+        else if (test && test->type == StepType::Explicit)
+          contact->error(damping, "contact damping is not available on the explicit path in this "
+                                  "version ([biaxial] type = \"explicit\")");
+        else if (test && test->type == StepType::Static)
+          contact->error(damping, "contact damping acts on the velocities of dynamic steps "
+                                  "([biaxial] type = \"dynamic\"); a static test has none");
+      }
     }
     // A TexGen file is read, and its own problems reported, whatever the rest of the deck holds.
     std::optional<Fabric> built;
@@ -313,6 +335,8 @@ public:
     if (auto title = root_.string("title"))
       built->model.title = *title;
     for (SplineContactDefinition& c : built->model.spline_contacts)
+      c.friction = friction;
+    for (SurfaceContactDefinition& c : built->model.surface_contacts)
       c.friction = friction;
     return std::move(built->model);
   }
@@ -559,9 +583,6 @@ private:
     out.penalty = t.number("penalty").value_or(out.penalty);
     out.exponent = law == "power" ? t.number("exponent").value_or(1) : 1.0;
     out.damping = t.number("damping").value_or(0);
-    if (out.damping > 0)
-      t.error("damping", "contact damping is not applied in this version (the contact stage "
-                         "receives no velocities); remove the key or set it to 0");
     return out;
   }
 

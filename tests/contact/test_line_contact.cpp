@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <random>
 
 namespace yarnsim::contact {
@@ -225,6 +226,79 @@ TEST(LineContact, ResidualAndTangentMatchFiniteDifferencesFromParallelToCrossing
       worst_t = std::max(worst_t, et);
     }
   std::printf("worst: residual %.1e, tangent %.1e\n", worst_r, worst_t);
+}
+
+/// The all-angle contact with a damped law on a dynamic step (PairRates): where the point
+/// contact is blended with the line contact the blended force s f + U grad s holds the damped
+/// point force, and its tangent the elastic gradient grad U; against central differences of the
+/// residual in which every step moves the coordinate's velocity by dv/dx times the step, as in a
+/// Newmark iteration.
+TEST(LineContact, DampedPointContactIsBlendedWithItsConsistentTangent) {
+  AllAngleOptions opt;
+  opt.line_scale = 1.0 / (2 * kRadius);
+  const DampedLaw law(std::make_shared<LinearPenalty>(kEps), 200.0);
+  const double vpd = 0.5 / (0.3 * 1e-4); // Newmark gamma / (beta dt), dt = 1e-4 s
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  // Velocities of the 2 kPoints control points, up to 0.01 m/s.
+  Eigen::Matrix3Xd v(3, 2 * kPoints);
+  for (int k = 0; k < 2 * kPoints; ++k)
+    for (int d = 0; d < 3; ++d)
+      v(d, k) = 0.01 * u(rng);
+  const auto damped_total = [&](const Curves& c, const Eigen::Matrix3Xd& vel) {
+    Total t;
+    SplineContactResult r;
+    for (int i = 0; i < curve().num_segments(); ++i)
+      for (int j = 0; j < curve().num_segments(); ++j) {
+        PairRates rates;
+        for (int k = 0; k < 3; ++k) {
+          rates.velocity_A.col(k) = vel.col(i + k);
+          rates.velocity_B.col(k) = vel.col(kPoints + j + k);
+        }
+        rates.velocity_per_displacement = vpd;
+        all_angle_contact(curve().control_points(c.a, i), curve().segment(i), kRadius,
+                          curve().control_points(c.b, j), curve().segment(j), kRadius, {}, law, opt,
+                          r, {}, nullptr, &rates);
+        if (!r.active)
+          continue;
+        t.force += r.force;
+        t.line_points += r.line_points;
+        int dofs[6] = {i, i + 1, i + 2, kPoints + j, kPoints + j + 1, kPoints + j + 2};
+        for (int p = 0; p < 6; ++p) {
+          t.residual.segment<3>(3 * dofs[p]) += r.residual.segment<3>(3 * p);
+          for (int q = 0; q < 6; ++q)
+            t.tangent.block<3, 3>(3 * dofs[p], 3 * dofs[q]) += r.tangent.block<3, 3>(3 * p, 3 * q);
+        }
+      }
+    return t;
+  };
+  double worst = 0;
+  for (const double angle : {0.2, 0.26, 0.3, 0.6})
+    for (int trial = 0; trial < 2; ++trial) {
+      const Curves c =
+          make_curves(angle, 2 * kRadius - 1e-5, 0.3 * u(rng) * kH, 0.02 * kRadius, rng);
+      const Total t0 = damped_total(c, v);
+      ASSERT_GT(t0.force, 0.0) << angle;
+      const double step = 1e-9;
+      Mat fd(6 * kPoints, 6 * kPoints);
+      for (int i = 0; i < 6 * kPoints; ++i) {
+        Curves p = c, m = c;
+        Eigen::Matrix3Xd vp = v, vm = v;
+        dof(p, i) += step;
+        dof(m, i) -= step;
+        vp(i % 3, i / 3) += vpd * step;
+        vm(i % 3, i / 3) -= vpd * step;
+        fd.col(i) = (damped_total(p, vp).residual - damped_total(m, vm).residual) / (2 * step);
+      }
+      const double e =
+          (fd - t0.tangent).lpNorm<Eigen::Infinity>() / t0.tangent.lpNorm<Eigen::Infinity>();
+      std::printf("damped, angle %.2f rad: tangent %.1e\n", angle, e);
+      EXPECT_LT(e, 1e-5) << angle;
+      worst = std::max(worst, e);
+      // The damping changes the force (the test sees it).
+      EXPECT_GT(std::abs(t0.force - total(c, opt).force), 1e-6 * t0.force) << angle;
+    }
+  RecordProperty("worst_damped_tangent", std::to_string(worst));
 }
 
 /// Largest relative change of the total force and residual in one step of B's turn from 90 to

@@ -806,14 +806,37 @@ TEST(DeckSplines, GroupsAreGivenOneWay) {
                            "splines (contact within it), found false");
 }
 
-TEST(DeckSplines, ContactDampingThatWouldNotBeAppliedIsAnError) {
-  const std::string deck = replace(kSplines, "damping = 0.0", "damping = 0.1");
-  const auto errors = errors_of(deck);
+TEST(DeckSplines, ContactDampingActsOnDynamicStepsOnly) {
+  // A static deck: the damping would act on nothing (no velocities).
+  std::string deck = replace(kSplines, "damping = 0.0", "damping = 0.1");
+  auto errors = errors_of(deck);
   ASSERT_EQ(errors.size(), 1u) << joined(errors);
   EXPECT_EQ(errors[0], where(deck, "0.1\nmargin") +
-                           "contacts[0].damping: contact damping is not applied in this version "
-                           "(the contact stage receives no velocities); remove the key or set it "
-                           "to 0");
+                           "contacts[0].damping: contact damping acts on the velocities of "
+                           "dynamic steps, and this deck has none (static steps have no "
+                           "velocities); remove the key or set it to 0");
+  // A dynamic step: read, normal and tangential.
+  const std::string dynamic =
+      replace(replace(deck, "type = \"static\"", "type = \"dynamic\""), "GJ = 1.0\n",
+              "GJ = 1.0\nrhoA = 0.1\nrhoJ = [1e-3, 1e-3, 1e-3]\n");
+  const Model m =
+      read_deck_string(replace(dynamic, "margin = 0.001\n",
+                               "margin = 0.001\nfriction = 0.2\ntangential_penalty = 1e5\n"
+                               "tangential_damping = 3.0\n"),
+                       "deck.toml");
+  EXPECT_DOUBLE_EQ(m.spline_contacts[0].law.damping, 0.1);
+  EXPECT_DOUBLE_EQ(m.spline_contacts[0].friction.tangential_damping, 3.0);
+  // Not on the explicit path.
+  errors = errors_of(replace(deck, "type = \"static\"", "type = \"explicit\""));
+  EXPECT_TRUE(has(errors, "contacts[0].damping: contact damping is not available on the explicit "
+                          "path in this version (steps[0] is explicit)"))
+      << joined(errors);
+  // Tangential damping needs friction.
+  errors = errors_of(replace(dynamic, "damping = 0.1", "damping = 0.0\ntangential_damping = 1.0"));
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_TRUE(has(errors, "contacts[0].tangential_damping: 'tangential_damping' applies only with "
+                          "friction"))
+      << joined(errors);
 }
 
 TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
@@ -993,6 +1016,22 @@ TEST(DeckSurfaces, SurfacesAndSurfaceContactsResolveToIndices) {
   EXPECT_EQ(m.surface_contacts[0].group_b, std::vector<int>{0});
   EXPECT_DOUBLE_EQ(m.surface_contacts[0].law.penalty, 3.5e5);
   EXPECT_EQ(m.spline_contacts.size(), 2u);
+}
+
+TEST(DeckSurfaces, SurfaceContactFrictionIsReadAndItsSplineOnlyKeysRefused) {
+  const Model m =
+      read_deck_string(kSurfaces + "static_friction = 0.3\nkinetic_friction = 0.2\n", "deck.toml");
+  const FrictionParameters& f = m.surface_contacts[0].friction;
+  EXPECT_DOUBLE_EQ(f.mu_static, 0.3);
+  EXPECT_DOUBLE_EQ(f.mu_kinetic, 0.2);
+  EXPECT_DOUBLE_EQ(f.tangential_penalty, 3.5e5); // the linear law's penalty
+  for (const char* key : {"torsional_friction = true", "tangential_damping = 1.0"}) {
+    const auto errors = errors_of(kSurfaces + "friction = 0.2\n" + key + "\n");
+    ASSERT_EQ(errors.size(), 1u) << key << joined(errors);
+    EXPECT_TRUE(has(errors, "applies only to type = \"spline\" (surface contact friction is "
+                            "pointwise Coulomb friction alone in this version)"))
+        << joined(errors);
+  }
 }
 
 TEST(DeckSurfaces, AllSurfaceErrorsAreReportedAtOnce) {

@@ -228,5 +228,87 @@ TEST(Friction, NewtonConvergesQuadraticallyInSlip) {
   EXPECT_GT(checked, 5);
 }
 
+/// Contact damping on a dynamic step (the velocities of Newmark's integrator reach the contact
+/// stage): the drag above with a tangential dashpot c_t beside the Coulomb element. In slip the
+/// drag force is mu N + c_t v exactly, v the slider's Newmark velocity at the increment (the
+/// prescribed motion is linear in time but Newmark's velocity of it, started from rest, rings
+/// about du/dt: the force follows the ringing).
+TEST(Friction, TangentialDampingAddsCTimesTheSlidingVelocityOnDynamicSteps) {
+  const double mu = 0.3, c_t = 50.0, t_end = 2.0;
+  const TimeTable drag{{0.0, 1.0, t_end}, {0.0, 0.0, 0.02}};
+  Drag d = drag_model(mu, mu, drag, t_end, 0.02);
+  d.model.spline_contacts[0].friction.tangential_damping = c_t;
+  d.model.steps[1].type = StepType::Dynamic;
+  Simulation sim(d.model);
+  struct Damped final : SimulationObserver {
+    const Drag& d;
+    std::vector<double> force, velocity;
+    int slipping = 0;
+    explicit Damped(const Drag& drag) : d(drag) {}
+    void on_increment(const Simulation& s, const IncrementReport& r) override {
+      if (r.time <= 1.0 + 1e-12)
+        return;
+      double rx = 0;
+      for (int node : d.slider)
+        rx += s.reactions()(0, node);
+      force.push_back(rx);
+      velocity.push_back(s.state().v_n(0, d.slider[0]));
+      slipping += s.contact()->summary().slip;
+    }
+  } rec(d);
+  sim.run(&rec);
+  ASSERT_EQ(rec.force.size(), 50u);
+  EXPECT_EQ(rec.slipping, 50);
+  double spread = 0;
+  for (std::size_t k = 0; k < rec.force.size(); ++k) {
+    EXPECT_NEAR(rec.force[k], mu * kNormal + c_t * rec.velocity[k], 1e-8 * mu * kNormal)
+        << "increment " << k << ", v = " << rec.velocity[k];
+    spread = std::max(spread, std::abs(rec.velocity[k] - 0.02));
+  }
+  // The test sees the dashpot: the velocities differ from du/dt and the force with them.
+  EXPECT_GT(spread, 1e-3);
+  EXPECT_GT(c_t * 0.02, 0.5 * mu * kNormal);
+}
+
+/// Normal damping on a dynamic step: the slider pushed into the rail by a prescribed z motion;
+/// the normal force is eps p + c dp/dt, dp/dt the approach velocity (Newmark's).
+TEST(Friction, NormalDampingAddsCTimesThePenetrationRateOnDynamicSteps) {
+  const double c = 5e4, t_end = 2.0;
+  const TimeTable still{{0.0, t_end}, {0.0, 0.0}};
+  Drag d = drag_model(0.0, 0.0, still, t_end, 0.05);
+  SplineContactDefinition& contact = d.model.spline_contacts[0];
+  contact.friction = {};
+  contact.law.damping = c;
+  d.model.loads.clear();
+  // Slider nodes: z prescribed from 0 down by 40 microns over t = 1 ... 2 (touching at t = 1).
+  d.model.prescribed[0].displacement[2] = TimeTable{{0.0, 1.0, t_end}, {0.0, 0.0, -4e-5}};
+  d.model.steps[1].type = StepType::Dynamic;
+  Simulation sim(d.model);
+  struct Pressed final : SimulationObserver {
+    const Drag& d;
+    int checked = 0;
+    double c = 0, damping = 0, total = 0;
+    explicit Pressed(const Drag& drag, double damping) : d(drag), c(damping) {}
+    void on_increment(const Simulation& s, const IncrementReport& r) override {
+      const ContactSummary summary = s.contact()->summary();
+      if (r.time <= 1.0 + 1e-12 || summary.active == 0)
+        return;
+      double rz = 0;
+      for (int node : d.slider)
+        rz += s.reactions()(2, node);
+      const double rate = -s.state().v_n(2, d.slider[0]); // dp/dt, m/s
+      const double expected = 1e5 * summary.max_penetration + c * rate;
+      EXPECT_NEAR(summary.total_force, expected, 1e-8 * expected) << "t = " << r.time;
+      EXPECT_NEAR(-rz, summary.total_force, 1e-8 * expected) << "t = " << r.time;
+      damping += c * rate;
+      total += expected;
+      ++checked;
+    }
+  } rec(d, c);
+  sim.run(&rec);
+  EXPECT_GE(rec.checked, 15);
+  EXPECT_GT(rec.damping, 0.2 * rec.total); // the damping term counts
+}
+
 } // namespace
 } // namespace yarnsim

@@ -129,10 +129,19 @@ TEST(FabricDeck, ContactFrictionReachesTheWarpWeftContact) {
     EXPECT_DOUBLE_EQ(s.width, 2 * t.sections[t.elements[element].section].a) << s.name;
     EXPECT_GT(s.width, 2 * s.radius) << s.name; // flat yarns: wider than the contact circle
   }
-  // Surface contact has no friction yet: said, not dropped.
-  const auto e = errors_of(std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n");
+  // Surface contact: pointwise friction reaches its definition; torsional friction is the
+  // spline contact's alone (said, not dropped).
+  const Model surface = read_deck_string(
+      std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n", "fabric.toml");
+  ASSERT_EQ(surface.surface_contacts.size(), 1u);
+  EXPECT_DOUBLE_EQ(surface.surface_contacts[0].friction.mu_static, 0.2);
+  EXPECT_DOUBLE_EQ(surface.surface_contacts[0].friction.tangential_penalty,
+                   surface.surface_contacts[0].law.penalty);
+  const auto e = errors_of(std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n"
+                                                 "torsional_friction = true\n");
   ASSERT_EQ(e.size(), 1u) << joined(e);
-  EXPECT_NE(e[0].find("contact.friction: friction is available for spline contact only"),
+  EXPECT_NE(e[0].find("contact.torsional_friction: 'torsional_friction' applies only to type = "
+                      "\"spline\""),
             std::string::npos)
       << e[0];
   // Nor on the explicit path (its energy balance does not close).
