@@ -79,7 +79,7 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
     broadphase::CandidateSearchOptions options;
     options.margin = margin;
     options.same_curve_skip = 1;
-    options.self_contact = def.self_contact;
+    options.self_contact = def.self_contact && def.within_spline;
     d->search = std::make_unique<broadphase::CandidateSearch>(std::move(info), groups, options);
     d->law = make_interface_law(def.law);
     if (def.line_contact &&

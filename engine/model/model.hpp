@@ -185,8 +185,12 @@ struct SplineContactDefinition {
   std::string name;
   std::vector<int> group_a, group_b;
   InterfaceLawParameters law;
-  bool self_contact = false; ///< pairs within one spline (beyond its neighbours)
-  double margin = 0;         ///< m, broad-phase box inflation beyond the radius; 0: the radius
+  bool self_contact = false; ///< pairs within a group: between its splines and within one
+  /// With self_contact: false keeps only the pairs between different splines of a group (the
+  /// fabric deck's warp-warp and weft-weft contacts), true also those of a spline with itself
+  /// beyond neighbouring segments.
+  bool within_spline = true;
+  double margin = 0; ///< m, broad-phase box inflation beyond the radius; 0: the radius
   /// All-angle contact (contact/line_contact.hpp): line contact below line_angle, point contact
   /// above point_angle, blended between; false: point contact at every angle (with its
   /// degenerate near-parallel path).

@@ -136,6 +136,7 @@ constexpr KeySpec kContactKeys[] = {
     {"kinetic_friction", Type::Number, kOptional, kNonNegative},
     {"tangential_penalty", Type::Number, kOptional, kPositive},
     {"tangential_damping", Type::Number, kOptional, kNonNegative},
+    {"same_direction", Type::Boolean},
     {"torsional_friction", Type::Boolean},
     {"torsional_radius", Type::Number, kOptional, kPositive},
     {"torsional_penalty", Type::Number, kOptional, kPositive},
@@ -269,6 +270,13 @@ public:
         contact ? contact_law(*contact, formulation) : default_law(formulation);
     std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
     FrictionParameters friction;
+    // Contact between neighbouring yarns of one direction (warp-warp, weft-weft): spline
+    // contact only.
+    const bool same_direction = contact && contact->boolean("same_direction").value_or(false);
+    if (same_direction && formulation == ContactFormulation::Surface)
+      contact->error("same_direction", "'same_direction' applies only to type = \"spline\" "
+                                       "(the surface contact has no contact within a group in "
+                                       "this version)");
     if (contact) {
       read_contact_friction(*contact, law, friction);
       const char* key = contact->present("friction") ? "friction" : "static_friction";
@@ -334,6 +342,8 @@ public:
     }
     if (auto title = root_.string("title"))
       built->model.title = *title;
+    if (same_direction)
+      add_same_direction_contacts(built->model);
     for (SplineContactDefinition& c : built->model.spline_contacts)
       c.friction = friction;
     for (SurfaceContactDefinition& c : built->model.surface_contacts)
@@ -342,6 +352,29 @@ public:
   }
 
 private:
+  /// Contacts "warp-warp" and "weft-weft" beside "warp-weft": each direction's splines as one
+  /// group in contact within itself (self_contact, between different yarns only), with the
+  /// warp-weft contact's law and margin,
+  /// where the direction has two yarns or more. The splines are named warp<i> and weft<j>.
+  static void add_same_direction_contacts(Model& model) {
+    if (model.spline_contacts.empty())
+      return;
+    const SplineContactDefinition base = model.spline_contacts.front();
+    for (const char* direction : {"warp", "weft"}) {
+      SplineContactDefinition c = base;
+      c.name = fmt::format("{}-{}", direction, direction);
+      c.group_a.clear();
+      c.group_b.clear();
+      c.self_contact = true;
+      c.within_spline = false; // a yarn does not touch itself in a fabric
+      for (std::size_t s = 0; s < model.splines.size(); ++s)
+        if (model.splines[s].name.rfind(direction, 0) == 0)
+          c.group_a.push_back(static_cast<int>(s));
+      if (c.group_a.size() >= 2)
+        model.spline_contacts.push_back(std::move(c));
+    }
+  }
+
   /// Weave keys with a TexGen file, TexGen keys without one.
   void misplaced_keys(const CheckedTable& t) const {
     if (texgen_) {

@@ -153,6 +153,36 @@ TEST(FabricDeck, ContactFrictionReachesTheWarpWeftContact) {
       << x[0];
 }
 
+TEST(FabricDeck, SameDirectionContactAddsWarpWarpAndWeftWeft) {
+  const Model m = read_deck_string(std::string(kValid) + "[contact]\nsame_direction = true\n"
+                                                         "friction = 0.2\n",
+                                   "fabric.toml");
+  ASSERT_EQ(m.spline_contacts.size(), 3u);
+  const SplineContactDefinition& cross = m.spline_contacts[0];
+  EXPECT_EQ(cross.name, "warp-weft");
+  for (int k : {1, 2}) {
+    const SplineContactDefinition& c = m.spline_contacts[k];
+    const std::string direction = k == 1 ? "warp" : "weft";
+    EXPECT_EQ(c.name, direction + "-" + direction);
+    EXPECT_TRUE(c.self_contact);
+    EXPECT_FALSE(c.within_spline); // between different yarns only
+    EXPECT_TRUE(c.group_b.empty());
+    EXPECT_EQ(c.group_a.size(), (k == 1 ? cross.group_a : cross.group_b).size());
+    for (int s : c.group_a)
+      EXPECT_EQ(m.splines[s].name.rfind(direction, 0), 0u) << m.splines[s].name;
+    EXPECT_EQ(c.law.penalty, cross.law.penalty);
+    EXPECT_DOUBLE_EQ(c.friction.mu_static, 0.2); // the deck's friction on all three
+  }
+  // Spline contact only: said at the key.
+  const auto e =
+      errors_of(std::string(kValid) + "[contact]\ntype = \"surface\"\nsame_direction = true\n");
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_NE(e[0].find("contact.same_direction: 'same_direction' applies only to type = "
+                      "\"spline\""),
+            std::string::npos)
+      << e[0];
+}
+
 TEST(FabricDeck, ExamplesAreThePapersStudy) {
   for (auto [file, k] : {std::pair{"biaxial-k1.toml", 1.0}, std::pair{"biaxial-k2.toml", 2.0},
                          std::pair{"biaxial-k0.5.toml", 0.5}}) {
