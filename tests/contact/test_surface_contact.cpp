@@ -1,6 +1,6 @@
 #include "contact/surface_contact.hpp"
 
-#include "engine/math/rotation.hpp"
+#include "surface_pairs.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,45 +17,14 @@
 namespace yarnsim::contact {
 namespace {
 
+using namespace surface_test;
+
 using Eigen::Matrix3d;
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 using Vec4 = Eigen::Vector4d;
 using Vec24 = Eigen::Matrix<double, 24, 1>;
 using Mat24 = Eigen::Matrix<double, 24, 24>;
-
-// Scales of the study (formulation.md §1): semi-axes 1.136 mm and 0.284 mm, surface penalty
-// 3.5e5 N/m, penetrations of microns, elements about 1 mm long.
-constexpr double kA = 1.136364e-3;
-constexpr double kB = 2.840909e-4;
-constexpr double kEps = 3.5e5;
-constexpr double kPi = 3.14159265358979323846;
-
-/// Rotation with columns e1, e2 = e3 x e1, e3.
-Matrix3d frame(const Vector3d& e1, const Vector3d& e3) {
-  Matrix3d q;
-  q.col(0) = e1.normalized();
-  q.col(2) = e3.normalized();
-  q.col(1) = q.col(2).cross(q.col(0));
-  return q;
-}
-
-/// A uniformly random rotation drawn from `rng` (Eigen's UnitRandom uses the global std::rand,
-/// which would make each test depend on the ones before it).
-Eigen::Quaterniond random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  return Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized();
-}
-
-/// A node whose current rotation is `q`, reached by the Rodrigues increment `alpha` from
-/// Q_n = Q(alpha)^T q.
-SurfaceNode node(const Vector3d& x, const Matrix3d& q, const Vector3d& alpha = Vector3d::Zero()) {
-  SurfaceNode n;
-  n.position = x;
-  n.rotation_increment = alpha;
-  n.converged_rotation = rodrigues_rotation<double>(alpha).transpose() * q;
-  return n;
-}
 
 /// Two element surfaces.
 struct Pair {
