@@ -82,10 +82,16 @@ std::string check_report(const Model& model) {
                           f.torsional_penalty > 0
                               ? fmt::format("{:.6g} N mm/rad", 1e3 * f.torsional_penalty)
                               : std::string("tangential penalty x radius^2"));
-    out += fmt::format("  spline contact '{}': {} x {} splines{}, {}, margin {:.6g} mm{}\n", c.name,
-                       c.group_a.size(), c.self_contact ? c.group_a.size() : c.group_b.size(),
-                       c.self_contact ? " (self contact)" : "", law_text(c.law), 1e3 * c.margin,
-                       friction + torsion);
+    // Who touches whom: two groups, or one group within itself (its splines with each other,
+    // and each spline with itself unless within_spline is off, as in a fabric's warp-warp).
+    const std::string groups =
+        !c.self_contact ? fmt::format("{} x {} splines", c.group_a.size(), c.group_b.size())
+        : c.group_b.empty()
+            ? fmt::format("{} splines with each other{}", c.group_a.size(),
+                          c.within_spline ? " and themselves (self contact)" : "")
+            : fmt::format("{} x {} splines (self contact)", c.group_a.size(), c.group_b.size());
+    out += fmt::format("  spline contact '{}': {}, {}, margin {:.6g} mm{}\n", c.name, groups,
+                       law_text(c.law), 1e3 * c.margin, friction + torsion);
   }
   for (const SurfaceContactDefinition& c : model.surface_contacts) {
     const FrictionParameters& f = c.friction;
