@@ -72,6 +72,17 @@ inline bool place(Pair& p, double ua, double ub, double delta) {
   return false;
 }
 
+/// place(), then checks that a cold start finds that point (strongly curved pairs can have
+/// another minimum). Returns false if either fails.
+inline bool place_checked(Pair& p, double ua, double ub, double delta) {
+  if (!place(p, ua, ub, delta)) {
+    return false;
+  }
+  const ProjectionResult pr = closest_point_projection(p.xa, *p.ba, p.xb, *p.bb, {});
+  return pr.status == ProjectionStatus::Converged && std::abs(p.ba->local(pr.xi_A) - ua) < 1e-9 &&
+         std::abs(p.bb->local(pr.xi_B) - ub) < 1e-9;
+}
+
 // Every random configuration is drawn from the test's own engine, one number per statement:
 // Eigen's Quaterniond::UnitRandom() draws from std::rand(), whose state depends on which tests
 // ran before (a --gtest_filter run saw other pairs than the full run), and the order in which

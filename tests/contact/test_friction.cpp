@@ -48,17 +48,6 @@ Evaluation evaluate(const Pair& p, const InterfaceLaw& law, const CoulombFrictio
   return e;
 }
 
-/// place(), then checks that a cold start finds that point (strongly curved pairs can have
-/// another minimum). Returns false if either fails.
-bool place_checked(Pair& p, double ua, double ub, double delta) {
-  if (!place(p, ua, ub, delta)) {
-    return false;
-  }
-  const ProjectionResult pr = closest_point_projection(p.xa, *p.ba, p.xb, *p.bb, {});
-  return pr.status == ProjectionStatus::Converged && std::abs(p.ba->local(pr.xi_A) - ua) < 1e-9 &&
-         std::abs(p.bb->local(pr.xi_B) - ub) < 1e-9;
-}
-
 /// A random anchor at local offsets (da, db) from the contact point (in segments; may lie in
 /// the neighbouring segment), and a tangential penalty that puts the trial force at `ratio`
 /// times the cone's radius mu f_n.

@@ -64,15 +64,29 @@ struct Total {
   Mat tangent = Mat::Zero(6 * kPoints, 6 * kPoints);
 };
 
-Total total(const Curves& c, const AllAngleOptions& opt, const SplineContactOptions& so = {}) {
-  static const LinearPenalty law(kEps);
+/// With `velocity` (3 x 2 kPoints, m/s, A's control points first) and `law` damped, each pair
+/// gets its control points' velocities and dv/dx = `vpd` (contact damping).
+Total total(const Curves& c, const AllAngleOptions& opt, const SplineContactOptions& so = {},
+            const InterfaceLaw* law = nullptr, const Eigen::Matrix3Xd* velocity = nullptr,
+            double vpd = 0.0) {
+  static const LinearPenalty linear(kEps);
+  if (law == nullptr)
+    law = &linear;
   Total t;
   SplineContactResult r;
+  PairRates rates;
   for (int i = 0; i < curve().num_segments(); ++i)
     for (int j = 0; j < curve().num_segments(); ++j) {
+      if (velocity != nullptr) {
+        for (int k = 0; k < 3; ++k) {
+          rates.velocity_A.col(k) = velocity->col(i + k);
+          rates.velocity_B.col(k) = velocity->col(kPoints + j + k);
+        }
+        rates.velocity_per_displacement = vpd;
+      }
       all_angle_contact(curve().control_points(c.a, i), curve().segment(i), kRadius,
-                        curve().control_points(c.b, j), curve().segment(j), kRadius, {}, law, opt,
-                        r, so);
+                        curve().control_points(c.b, j), curve().segment(j), kRadius, {}, *law, opt,
+                        r, so, nullptr, velocity != nullptr ? &rates : nullptr);
       EXPECT_NE(r.status, ProjectionStatus::NotConverged) << i << " " << j;
       if (!r.active)
         continue;
@@ -246,31 +260,7 @@ TEST(LineContact, DampedPointContactIsBlendedWithItsConsistentTangent) {
     for (int d = 0; d < 3; ++d)
       v(d, k) = 0.01 * u(rng);
   const auto damped_total = [&](const Curves& c, const Eigen::Matrix3Xd& vel) {
-    Total t;
-    SplineContactResult r;
-    for (int i = 0; i < curve().num_segments(); ++i)
-      for (int j = 0; j < curve().num_segments(); ++j) {
-        PairRates rates;
-        for (int k = 0; k < 3; ++k) {
-          rates.velocity_A.col(k) = vel.col(i + k);
-          rates.velocity_B.col(k) = vel.col(kPoints + j + k);
-        }
-        rates.velocity_per_displacement = vpd;
-        all_angle_contact(curve().control_points(c.a, i), curve().segment(i), kRadius,
-                          curve().control_points(c.b, j), curve().segment(j), kRadius, {}, law, opt,
-                          r, {}, nullptr, &rates);
-        if (!r.active)
-          continue;
-        t.force += r.force;
-        t.line_points += r.line_points;
-        int dofs[6] = {i, i + 1, i + 2, kPoints + j, kPoints + j + 1, kPoints + j + 2};
-        for (int p = 0; p < 6; ++p) {
-          t.residual.segment<3>(3 * dofs[p]) += r.residual.segment<3>(3 * p);
-          for (int q = 0; q < 6; ++q)
-            t.tangent.block<3, 3>(3 * dofs[p], 3 * dofs[q]) += r.tangent.block<3, 3>(3 * p, 3 * q);
-        }
-      }
-    return t;
+    return total(c, opt, {}, &law, &vel, vpd);
   };
   double worst = 0;
   for (const double angle : {0.2, 0.26, 0.3, 0.6})

@@ -55,15 +55,6 @@ Evaluation evaluate(const Pair& p, const InterfaceLaw& law, const TorsionalFrict
   return e;
 }
 
-/// place(), then checks that a cold start finds that point. Returns false if either fails.
-bool place_checked(Pair& p, double ua, double ub, double delta) {
-  if (!place(p, ua, ub, delta))
-    return false;
-  const ProjectionResult pr = closest_point_projection(p.xa, *p.ba, p.xb, *p.bb, {});
-  return pr.status == ProjectionStatus::Converged && std::abs(p.ba->local(pr.xi_A) - ua) < 1e-9 &&
-         std::abs(p.bb->local(pr.xi_B) - ub) < 1e-9;
-}
-
 /// A history whose anchor angle puts the trial torque at `ratio` times the cone's radius
 /// mu f_n rho, twisted either way.
 FrictionHistory twisted(const Pair& p, const SplineContactResult& c, double mu, double ratio,
