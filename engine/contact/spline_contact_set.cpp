@@ -66,12 +66,12 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
         for (int i = 0; i < curves_[s].num_segments(); ++i) {
           d->spline.push_back(s);
           d->segment.push_back(i);
-          d->radius.push_back(model.splines[s].radius);
-          d->width.push_back(model.splines[s].width > 0 ? model.splines[s].width
-                                                        : 2 * model.splines[s].radius);
+          const double radius = def.radius > 0 ? def.radius : model.splines[s].radius;
+          d->radius.push_back(radius);
+          d->width.push_back(model.splines[s].width > 0 ? model.splines[s].width : 2 * radius);
           info.push_back({s, i, group});
           if (def.margin <= 0)
-            margin = std::max(margin, model.splines[s].radius);
+            margin = std::max(margin, radius);
         }
     std::vector<std::pair<int, int>> groups{{0, 1}};
     if (def.self_contact)

@@ -191,6 +191,10 @@ struct SplineContactDefinition {
   /// beyond neighbouring segments.
   bool within_spline = true;
   double margin = 0; ///< m, broad-phase box inflation beyond the radius; 0: the radius
+  /// m; > 0: the contact radius of every spline of this contact instead of its own
+  /// (Spline::radius). The fabric deck's warp-warp and weft-weft contacts take the section's
+  /// in-plane semi-axis a: yarns of one direction touch side by side, across their width.
+  double radius = 0;
   /// All-angle contact (contact/line_contact.hpp): line contact below line_angle, point contact
   /// above point_angle, blended between; false: point contact at every angle (with its
   /// degenerate near-parallel path).
@@ -241,6 +245,51 @@ struct BiaxialTest {
   double length_weft = 0;    ///< m
   /// Per yarn: node sets of its start (x or y minimum) and end node.
   std::vector<int> warp_start, warp_end, weft_start, weft_end;
+  /// Uniaxial tension: only the warp is pulled, the weft yarns' ends are free (their strain is
+  /// read from the ends' positions, their force is zero).
+  bool uniaxial = false;
+};
+
+/// A crossing of a warp and a weft yarn where a shear test measures the angle between the yarns:
+/// per yarn the nodes before, at and after the crossing along it (tangent x[next] - x[prev]).
+struct CrossingNodes {
+  std::array<int, 3> warp{};
+  std::array<int, 3> weft{};
+};
+
+/// A picture-frame shear test (docs/shear-tests.md): a rigid square frame of side L hinged at its
+/// corners, the yarn ends held by its arms; the corner A stays, the opposite corner is pulled
+/// along the diagonal. In the reference configuration the arms lie along x and y from A. At frame
+/// shear angle gamma the arm along x turns by +gamma / 2 and the arm along y by -gamma / 2, and a
+/// point X held by an arm is at A + X1 e1 + X2 e2 with (X1, X2) = X - A, e1 = (cos gamma/2,
+/// sin gamma/2), e2 = (sin gamma/2, cos gamma/2).
+struct PictureFrameTest {
+  double side = 0;                                  ///< L, hinge to hinge, m, before pretension
+  Eigen::Vector2d corner = Eigen::Vector2d::Zero(); ///< A, m
+  TimeTable angle = TimeTable::constant(0.0);       ///< gamma(t), rad
+  /// s(t) = 1 + the pretension strain: the frame first grows by s about its centre c (at
+  /// gamma = 0), so a point held at X is at A' + s F(gamma) (X - A), A' = c + s (A - c).
+  TimeTable stretch = TimeTable::constant(1.0);
+  double shear_start = 0;         ///< s, when the frame angle starts to ramp (after the pretension)
+  double max_angle = 0;           ///< rad
+  bool clamped = false;           ///< the arms also turn the ends (rotation about z), else pinned
+  std::vector<int> ends;          ///< the yarn end nodes the arms hold
+  std::vector<bool> end_on_x_arm; ///< per end: on an arm along x (a weft end)
+  std::vector<CrossingNodes> central; ///< crossings of the central region
+  double central_region = 0.5;        ///< side of that region over L
+  double locking_angle = 0;           ///< rad, acos(w / p): neighbouring parallel yarns touch
+};
+
+/// A bias-extension shear test (docs/shear-tests.md): an H x W specimen with the yarns at +-45
+/// degrees to its length (y), clamped over a length at both ends; the bottom clamp stays, the
+/// top one moves by d(t) along y.
+struct BiasExtensionTest {
+  double height = 0, width = 0, clamp_length = 0;    ///< m
+  TimeTable displacement = TimeTable::constant(0.0); ///< d(t), m
+  double max_displacement = 0;                       ///< m
+  int clamp_bottom = -1, clamp_top = -1;             ///< node sets
+  std::vector<CrossingNodes> central;                ///< crossings of the central zone (zone C)
+  double locking_angle = 0;                          ///< rad
 };
 
 struct Model {
@@ -259,7 +308,9 @@ struct Model {
   std::vector<SplineContactDefinition> spline_contacts;
   std::vector<Surface> surfaces;
   std::vector<SurfaceContactDefinition> surface_contacts;
-  std::optional<BiaxialTest> biaxial;
+  std::optional<BiaxialTest> biaxial; ///< also uniaxial tension (BiaxialTest::uniaxial)
+  std::optional<PictureFrameTest> picture_frame;
+  std::optional<BiasExtensionTest> bias_extension;
   /// Optional user labels of nodes (deck ids); empty means node i is labelled i + 1.
   std::vector<long> node_labels;
 

@@ -8,6 +8,7 @@
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/textile/biaxial.hpp"
+#include "engine/textile/shear_tests.hpp"
 #include "yarnsim/version.hpp"
 
 #include <algorithm>
@@ -158,29 +159,17 @@ private:
   std::vector<CsvFile> files_;
 };
 
-/// The force-strain curves of a biaxial test (paper §5, Fig. 3) in curves.csv: per increment
-/// the reading of the test (textile::read_biaxial), then the force of every yarn.
-class BiaxialCurves {
+/// The curves of a fabric test in curves.csv, a row per increment, and the scalars of its
+/// first columns in results.h5.
+class TestCurves {
 public:
-  explicit BiaxialCurves(const Model& model) : model_(model), test_(*model.biaxial) {
-    file_.name = "curves.csv";
-    file_.columns = {"time [s]", "strain_warp [-]", "strain_weft [-]", "force_warp [N]",
-                     "force_weft [N]"};
-    for (std::size_t i = 0; i < test_.warp_start.size(); ++i)
-      file_.columns.push_back(fmt::format("warp{} [N]", i + 1));
-    for (std::size_t i = 0; i < test_.weft_start.size(); ++i)
-      file_.columns.push_back(fmt::format("weft{} [N]", i + 1));
-  }
-
-  /// Strains and forces of the last converged increment: strain_warp, strain_weft, force_warp,
-  /// force_weft, then per yarn.
-  std::vector<double> values(const Simulation& sim) const {
-    const textile::BiaxialReading r =
-        textile::read_biaxial(model_, sim.state().x_n, sim.reactions());
-    std::vector<double> out{r.strain_warp, r.strain_weft, r.force_warp, r.force_weft};
-    out.insert(out.end(), r.yarn_forces.begin(), r.yarn_forces.end());
-    return out;
-  }
+  virtual ~TestCurves() = default;
+  /// The values of the last converged increment, in the order of the columns after time.
+  virtual std::vector<double> values(const Simulation& sim) = 0;
+  /// Names of the leading values that results.h5 also stores per output step.
+  virtual std::vector<std::string> scalar_names() const = 0;
+  /// Said once at the end of the run (empty: nothing).
+  virtual std::string closing_note() const { return {}; }
 
   /// The row of curves.csv for values v of time.
   CsvRow row(double time, const std::vector<double>& v) const {
@@ -189,11 +178,120 @@ public:
     return {&file_, std::move(row)};
   }
 
+protected:
+  CsvFile file_{"curves.csv", {"time [s]"}};
+};
+
+/// The force-strain curves of a biaxial (or uniaxial) test (paper §5, Fig. 3): per increment
+/// the reading of the test (textile::read_biaxial), then the force of every yarn.
+class BiaxialCurves final : public TestCurves {
+public:
+  explicit BiaxialCurves(const Model& model) : model_(model), test_(*model.biaxial) {
+    file_.columns.insert(file_.columns.end(), {"strain_warp [-]", "strain_weft [-]",
+                                               "force_warp [N]", "force_weft [N]"});
+    for (std::size_t i = 0; i < test_.warp_start.size(); ++i)
+      file_.columns.push_back(fmt::format("warp{} [N]", i + 1));
+    for (std::size_t i = 0; i < test_.weft_start.size(); ++i)
+      file_.columns.push_back(fmt::format("weft{} [N]", i + 1));
+  }
+
+  /// Strains and forces of the last converged increment: strain_warp, strain_weft, force_warp,
+  /// force_weft, then per yarn.
+  std::vector<double> values(const Simulation& sim) override {
+    const textile::BiaxialReading r =
+        textile::read_biaxial(model_, sim.state().x_n, sim.reactions());
+    std::vector<double> out{r.strain_warp, r.strain_weft, r.force_warp, r.force_weft};
+    out.insert(out.end(), r.yarn_forces.begin(), r.yarn_forces.end());
+    return out;
+  }
+
+  std::vector<std::string> scalar_names() const override {
+    return {"strain_warp", "strain_weft", "force_warp", "force_weft"};
+  }
+
 private:
   const Model& model_;
   const BiaxialTest& test_;
-  CsvFile file_;
 };
+
+/// The curves of a picture frame (docs/shear-tests.md): the crosshead's travel and force, the
+/// frame's shear angle and the one measured on the central yarns, the benchmark's shear forces,
+/// the stored energies and, with contact between yarns of one direction, how many of those
+/// contacts are active (locking).
+class PictureFrameCurves final : public TestCurves {
+public:
+  explicit PictureFrameCurves(const Model& model) : model_(model), test_(*model.picture_frame) {
+    file_.columns.insert(file_.columns.end(),
+                         {"displacement [m]", "force [N]", "frame_angle [deg]",
+                          "measured_angle [deg]", "angle_spread [deg]", "shear_force [N]",
+                          "normalised_shear_force [N/m]", "strain_energy [J]", "contact_energy [J]",
+                          "kinetic_energy [J]"});
+    for (const SplineContactDefinition& c : model.spline_contacts)
+      parallel_ = parallel_ || (c.self_contact && !c.within_spline);
+    if (parallel_)
+      file_.columns.push_back("parallel_contacts [-]");
+  }
+
+  std::vector<double> values(const Simulation& sim) override {
+    const double time = sim.state().time;
+    const textile::PictureFrameReading r =
+        textile::read_picture_frame(model_, time, sim.state().x_n, sim.reactions());
+    std::vector<double> out{r.displacement,
+                            r.force,
+                            r.frame_angle,
+                            r.measured.mean,
+                            r.measured.spread,
+                            r.shear_force,
+                            r.normalised_shear_force,
+                            sim.strain_energy(),
+                            sim.contact_energy(),
+                            sim.kinetic_energy()};
+    if (parallel_) {
+      long n = 0;
+      if (const ContactStage* contact = sim.contact())
+        for (const ContactPoint& p : contact->points())
+          if (!p.surface && model_.spline_contacts[p.definition].self_contact &&
+              !model_.spline_contacts[p.definition].within_spline)
+            ++n;
+      out.push_back(static_cast<double>(n));
+      if (n > 0 && !locked_at_)
+        locked_at_ = r.frame_angle;
+    }
+    return out;
+  }
+
+  std::vector<std::string> scalar_names() const override {
+    return {"displacement", "force", "frame_angle", "measured_angle"};
+  }
+
+  std::string closing_note() const override {
+    if (!parallel_)
+      return {};
+    const double geometry = test_.locking_angle * 180 / 3.14159265358979323846;
+    if (locked_at_)
+      return fmt::format("neighbouring parallel yarns first touched at a frame angle of {:.2f} "
+                         "degrees (the yarn widths and spacings predict {:.2f} degrees)",
+                         *locked_at_, geometry);
+    return fmt::format("neighbouring parallel yarns did not touch in this run (the yarn widths "
+                       "and spacings predict it at {:.2f} degrees)",
+                       geometry);
+  }
+
+private:
+  const Model& model_;
+  const PictureFrameTest& test_;
+  bool parallel_ = false;
+  std::optional<double> locked_at_; ///< degrees, the frame angle of the first parallel contact
+};
+
+/// The curves of the model's test, if it has one.
+std::unique_ptr<TestCurves> test_curves(const Model& model) {
+  if (model.biaxial)
+    return std::make_unique<BiaxialCurves>(model);
+  if (model.picture_frame)
+    return std::make_unique<PictureFrameCurves>(model);
+  return nullptr;
+}
 
 /// contact_points.csv: a row per active contact point, in the contact stage's order (spline
 /// contacts, then surface contacts; by definition, then by pair), so the file does not depend on
@@ -297,8 +395,7 @@ public:
         monitors_(monitors), csv_(csv), writer_(writer), tty_(isatty(fileno(stderr))),
         start_(Clock::now()), last_print_(start_), contact_points_(contact_points) {
     t_end_ = model.steps.back().end_time;
-    if (model.biaxial)
-      curves_ = std::make_unique<BiaxialCurves>(model);
+    curves_ = test_curves(model);
   }
 
   /// The rows of the initial state (time 0, increment 0) in every CSV file the run writes, before
@@ -390,8 +487,8 @@ public:
         o.scalars.push_back({"max_penetration", contact->max_penetration()});
       }
       if (curves_) {
-        const char* names[] = {"strain_warp", "strain_weft", "force_warp", "force_weft"};
-        for (int k = 0; k < 4; ++k)
+        const std::vector<std::string> names = curves_->scalar_names();
+        for (std::size_t k = 0; k < names.size(); ++k)
           o.scalars.push_back({names[k], curve_values[k]});
       }
     }
@@ -439,6 +536,9 @@ public:
   void finish() {
     if (options_.progress && tty_)
       fmt::print(stderr, "\n");
+    if (curves_)
+      if (const std::string note = curves_->closing_note(); !note.empty())
+        fmt::print(stderr, "note: {}\n", note);
   }
 
   /// Queues the checkpoint of the last completed increment unless it was written already.
@@ -453,8 +553,8 @@ private:
   static constexpr std::chrono::seconds kCheckpointInterval{1};
 
   /// The rows of the monitors, curves.csv, contact.csv and contact_points.csv for the
-  /// simulation's last converged state, increment at time (s); curve_values gets the biaxial
-  /// reading when there is a test.
+  /// simulation's last converged state, increment at time (s); curve_values gets the test's
+  /// reading when there is one.
   void csv_rows(const Simulation& sim, int increment, double time,
                 std::vector<double>& curve_values, std::vector<CsvRow>& rows) const {
     monitors_.rows(sim, time, rows);
@@ -553,7 +653,7 @@ private:
     return {&energy_csv_, std::move(v)};
   }
   int explicit_reported_ = -1; ///< last explicit step announced
-  std::unique_ptr<BiaxialCurves> curves_;
+  std::unique_ptr<TestCurves> curves_;
   std::string contact_status_;
   std::shared_ptr<const SimulationCheckpoint> latest_; ///< of the last completed increment
   bool latest_written_ = false;

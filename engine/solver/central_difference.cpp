@@ -353,6 +353,8 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
       double m_b = lightest(def.group_b, r_min);
       if (def.self_contact) // pairs within a group too
         m_a = m_b = std::min(m_a, m_b);
+      if (def.radius > 0) // the definition's radius stands for its splines'
+        r_min = def.radius;
       consider(def.name, def.law, m_a, m_b, r_min);
     }
     // Surfaces: the contact force also acts at up to the section's reach from the axis, which

@@ -25,75 +25,14 @@ int require_set(const Model& model, const std::string& name) {
   return s;
 }
 
-/// A table that ramps from 0 at t0 to `value` at t1 along `shape` (the smooth step tabulated at
-/// 400 equal intervals); exactly 0 when value is 0.
-TimeTable ramp(double t0, double t1, double value, BiaxialRamp shape) {
-  if (value == 0)
-    return TimeTable::constant(0.0);
-  if (shape == BiaxialRamp::Linear)
-    return TimeTable{{t0, t1}, {0.0, value}};
-  constexpr int kIntervals = 400;
-  TimeTable table;
-  for (int i = 0; i <= kIntervals; ++i) {
-    const double tau = static_cast<double>(i) / kIntervals;
-    table.time.push_back(i == kIntervals ? t1 : t0 + tau * (t1 - t0));
-    table.value.push_back(value * tau * tau * tau * (10 + tau * (-15 + 6 * tau)));
-  }
-  return table;
-}
-
 } // namespace
 
 void add_biaxial_test(Fabric& fabric, const BiaxialParameters& p) {
   const auto [eps_warp, eps_weft] = biaxial_strains(p.strain_ratio, p.max_strain);
   const double T = p.loading_time;
-  if (!(T > 0) || !std::isfinite(T))
-    throw std::invalid_argument(fmt::format("biaxial: expected a loading time > 0, found {}", T));
   Model& model = fabric.model;
   const double t0 = model.steps.empty() ? 0.0 : model.steps.back().end_time;
-
-  SolutionStep step;
-  step.type = p.type;
-  step.end_time = t0 + T;
-  if (p.type == StepType::Explicit) {
-    const BiaxialExplicit& x = p.explicit_;
-    step.mass_scaling_dt = x.mass_scaling_dt < 0 ? T / 50000 : x.mass_scaling_dt;
-    step.dt_initial = x.dt > 0 ? x.dt : step.mass_scaling_dt;
-    if (!(step.dt_initial > 0) || step.dt_initial > T)
-      throw std::invalid_argument(
-          fmt::format("biaxial: expected an explicit time step in (0, loading time {}] (dt, or "
-                      "mass_scaling_dt when dt is not given), found {}",
-                      T, step.dt_initial));
-    if (!(x.safety_factor > 0 && x.safety_factor <= 1))
-      throw std::invalid_argument(
-          fmt::format("biaxial: expected a safety factor in (0, 1], found {}", x.safety_factor));
-    step.dt_max = step.dt_initial;
-    step.dt_min = 1e-3 * step.dt_initial;
-    step.safety_factor = x.safety_factor;
-    step.stable_dt_every = std::max(1, x.stable_dt_every);
-    step.energy_monitor = x.energy_monitor;
-    // About 200 outputs over the step unless asked otherwise.
-    step.output_every =
-        x.output_every > 0
-            ? x.output_every
-            : static_cast<int>(std::clamp(std::ceil(T / step.dt_initial / 200), 1.0, 1e9));
-  } else if (p.type == StepType::Static || p.type == StepType::Dynamic) {
-    step.dt_initial = p.dt > 0 ? p.dt : T / 100;
-    step.dt_max = p.dt_max > 0 ? p.dt_max : std::max(T / 50, step.dt_initial);
-    step.dt_min = p.dt_min > 0 ? p.dt_min : std::min(T * 1e-6, step.dt_initial);
-    if (step.dt_initial > T || step.dt_min > step.dt_initial || step.dt_initial > step.dt_max)
-      throw std::invalid_argument(fmt::format("biaxial: expected dt_min <= dt <= dt_max and dt <= "
-                                              "the loading time {}, found {} <= {} <= {}",
-                                              T, step.dt_min, step.dt_initial, step.dt_max));
-    step.max_iterations = p.max_iterations;
-    step.tol_force = p.tol_force;
-    step.tol_increment = p.tol_increment;
-    step.newmark_beta = p.newmark_beta;
-    step.newmark_gamma = p.newmark_gamma;
-    step.output_every = p.output_every;
-  } else {
-    throw std::invalid_argument("biaxial: expected a static, dynamic or explicit step");
-  }
+  const SolutionStep step = loading_step(p, t0, "biaxial");
 
   BiaxialTest test;
   test.strain_ratio = p.strain_ratio;
@@ -119,7 +58,7 @@ void add_biaxial_test(Fabric& fabric, const BiaxialParameters& p) {
       motion.node_set = set;
       for (int c = 0; c < 3; ++c)
         motion.displacement[static_cast<std::size_t>(c)] =
-            ramp(t0, t0 + T, sign * half * d(c), p.ramp);
+            ramp_table(t0, t0 + T, sign * half * d(c), p.ramp);
       model.prescribed.push_back(std::move(motion));
     }
     if (y.warp) {

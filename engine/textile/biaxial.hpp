@@ -3,52 +3,17 @@
 // along its yarn, rotations free, with strain ratio k = eps_warp / eps_weft.
 
 #include "engine/textile/fabric.hpp"
+#include "engine/textile/loading.hpp"
 
 #include <utility>
 #include <vector>
 
 namespace yarnsim::textile {
 
-/// Shape of the end displacement's ramp from 0 to its final value over the loading time.
-enum class BiaxialRamp {
-  Linear, ///< u = u_T t / T: the paper's; the ends start moving with a jump in velocity
-  /// u = u_T s(t / T), s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 (quintic smooth step: zero velocity
-  /// and acceleration at both ends), tabulated at 400 equal intervals. Excites fewer stress waves
-  /// on the explicit path; the peak rate is 15/8 of the linear one.
-  Smooth,
-};
-
-/// Settings of the explicit path (central difference, mass scaling) of the biaxial step.
-struct BiaxialExplicit {
-  /// s; the mass-scaling target step. 0: no mass scaling (then dt must be given and below the
-  /// stable limit, ~8.4e-8 s on the paper's fabric). Negative: loading_time / 50 000, what the
-  /// paper's k = 1 case needs to stay within 5 % of the implicit curve past the toe
-  /// (docs/verification.md).
-  double mass_scaling_dt = -1;
-  double dt = 0;              ///< s; 0: mass_scaling_dt
-  double safety_factor = 0.8; ///< stable step = safety_factor x 2 / omega_max
-  int stable_dt_every = 100;  ///< increments between estimates of the stable step
-  int output_every = 0;       ///< 0: about 200 outputs over the step
-  bool energy_monitor = true; ///< energy.csv
-};
-
-struct BiaxialParameters {
+/// The biaxial test: its loading step (loading.hpp) and strains.
+struct BiaxialParameters : LoadingParameters {
   double strain_ratio = 1;   ///< k = eps_warp / eps_weft, > 0 (paper: 1, 2, 0.5)
   double max_strain = 0.015; ///< nominal strain in the more strained direction, in (0, 1)
-  double loading_time = 1;   ///< s, duration of the ramp from zero strain
-  /// Dynamic (Newmark, the paper's), Static, or Explicit (central difference with `explicit_`).
-  StepType type = StepType::Dynamic;
-  BiaxialRamp ramp = BiaxialRamp::Linear;
-  double dt = 0;     ///< s; 0: loading_time / 100
-  double dt_min = 0; ///< s; 0: loading_time * 1e-6
-  double dt_max = 0; ///< s; 0: loading_time / 50
-  int max_iterations = 20;
-  double tol_force = 1e-4;
-  double tol_increment = 1e-4;
-  double newmark_beta = 0.3;  ///< the paper's
-  double newmark_gamma = 0.5; ///< the paper's
-  int output_every = 1;       ///< implicit steps
-  BiaxialExplicit explicit_;  ///< explicit steps
   /// Add node-set monitors "warp_ends" (node set "warp.end") and "weft_ends" ("weft.end"):
   /// the summed reactions at the yarn ends of each direction.
   bool monitors = true;

@@ -3,6 +3,7 @@
 #include "engine/model/contact_friction.hpp"
 #include "engine/model/deck.hpp"
 #include "engine/textile/biaxial.hpp"
+#include "engine/textile/shear_tests.hpp"
 #include "engine/textile/texgen.hpp"
 #include "engine/textile/weave.hpp"
 
@@ -107,9 +108,8 @@ constexpr KeySpec kExplicitKeys[] = {
     {"energy_monitor", Type::Boolean},
 };
 constexpr TableSpec kExplicit{"explicit", kExplicitKeys};
-constexpr KeySpec kBiaxialKeys[] = {
-    {"strain_ratio", Type::Number, kRequired, kPositive},
-    {"max_strain", Type::Number, kOptional, kUnitOpen},
+/// The keys of every test's loading step (LoadingParameters, engine/textile/loading.hpp).
+constexpr KeySpec kLoadingKeys[] = {
     {"loading_time", Type::Number, kOptional, kPositive},
     {"type", Type::String},
     {"ramp", Type::String},
@@ -120,10 +120,42 @@ constexpr KeySpec kBiaxialKeys[] = {
     {"tolerance", Type::Table, kOptional, kAnyValue, &kTolerance},
     {"newmark", Type::Table, kOptional, kAnyValue, &kNewmark},
     {"output_every", Type::Integer, kOptional, kAtLeastOne},
-    {"monitors", Type::Boolean},
     {"explicit", Type::Table, kOptional, kAnyValue, &kExplicit},
 };
+
+/// A test's own keys followed by kLoadingKeys.
+template <std::size_t N>
+constexpr std::array<KeySpec, N + std::size(kLoadingKeys)> with_loading(const KeySpec (&own)[N]) {
+  std::array<KeySpec, N + std::size(kLoadingKeys)> out{};
+  for (std::size_t i = 0; i < N; ++i)
+    out[i] = own[i];
+  for (std::size_t i = 0; i < std::size(kLoadingKeys); ++i)
+    out[N + i] = kLoadingKeys[i];
+  return out;
+}
+
+constexpr KeySpec kBiaxialOwnKeys[] = {
+    {"strain_ratio", Type::Number, kRequired, kPositive},
+    {"max_strain", Type::Number, kOptional, kUnitOpen},
+    {"monitors", Type::Boolean},
+};
+constexpr auto kBiaxialKeys = with_loading(kBiaxialOwnKeys);
 constexpr TableSpec kBiaxial{"[biaxial]", kBiaxialKeys};
+
+constexpr Range kShearAngle{0, 90, true, true};
+constexpr Range kPretension{0, 0.1, false, true};
+constexpr KeySpec kPictureFrameOwnKeys[] = {
+    {"max_angle", Type::Number, kOptional, kShearAngle},
+    {"ends", Type::String},
+    {"central_region", Type::Number, kOptional, kUnitHalfOpen},
+    {"pretension", Type::Number, kOptional, kPretension},
+    {"pretension_time", Type::Number, kOptional, kPositive},
+};
+constexpr auto kPictureFrameKeys = with_loading(kPictureFrameOwnKeys);
+constexpr TableSpec kPictureFrame{"[picture_frame]", kPictureFrameKeys};
+
+/// The test blocks of a fabric deck: exactly one is given.
+constexpr std::string_view kTests[] = {"biaxial", "picture_frame"};
 
 constexpr KeySpec kContactKeys[] = {
     {"type", Type::String},
@@ -146,14 +178,16 @@ constexpr TableSpec kContact{"[contact]", kContactKeys};
 constexpr KeySpec kFabricDeckKeys[] = {
     {"title", Type::String},
     {"fabric", Type::Table, kRequired, kAnyValue, &kFabric},
-    {"biaxial", Type::Table, kRequired, kAnyValue, &kBiaxial},
+    {"biaxial", Type::Table, kOptional, kAnyValue, &kBiaxial},
+    {"picture_frame", Type::Table, kOptional, kAnyValue, &kPictureFrame},
     {"contact", Type::Table, kOptional, kAnyValue, &kContact},
 };
 constexpr TableSpec kFabricDeck{"the top level of a fabric deck", kFabricDeckKeys};
 constexpr KeySpec kTexGenFabricDeckKeys[] = {
     {"title", Type::String},
     {"fabric", Type::Table, kRequired, kAnyValue, &kTexGenFabric},
-    {"biaxial", Type::Table, kRequired, kAnyValue, &kBiaxial},
+    {"biaxial", Type::Table, kOptional, kAnyValue, &kBiaxial},
+    {"picture_frame", Type::Table, kOptional, kAnyValue, &kPictureFrame},
     {"contact", Type::Table, kOptional, kAnyValue, &kContact},
 };
 constexpr TableSpec kTexGenFabricDeck{"the top level of a fabric deck", kTexGenFabricDeckKeys};
@@ -261,18 +295,43 @@ public:
   Model build() {
     const CheckedTable* fabric = root_.table("fabric");
     const CheckedTable* biaxial = root_.table("biaxial");
+    const CheckedTable* frame = root_.table("picture_frame");
     const CheckedTable* contact = root_.table("contact");
     if (fabric)
       misplaced_keys(*fabric);
+    // Exactly one test block.
+    std::vector<std::string_view> tests;
+    for (std::string_view t : kTests)
+      if (root_.present(t))
+        tests.push_back(t);
+    if (tests.empty() && std::none_of(std::begin(kTests), std::end(kTests),
+                                      [&](std::string_view t) { return root_.misspelt(t); }))
+      root_.error("expected a test block: [biaxial] or [picture_frame] (docs/input.md, \"Fabric "
+                  "decks\")");
+    for (std::size_t k = 1; k < tests.size(); ++k)
+      root_.error(tests[k], fmt::format("a fabric deck runs one test: found [{}] and [{}]",
+                                        tests[0], tests[k]));
     const ContactFormulation formulation =
         contact ? contact_formulation(*contact) : ContactFormulation::Spline;
     const InterfaceLawParameters law =
         contact ? contact_law(*contact, formulation) : default_law(formulation);
-    std::optional<BiaxialParameters> test = biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
+    std::optional<BiaxialParameters> biaxial_test =
+        biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
+    std::optional<PictureFrameParameters> frame_test =
+        frame ? picture_frame_parameters(*frame) : std::nullopt;
+    const LoadingParameters* loading = biaxial_test
+                                           ? static_cast<LoadingParameters*>(&*biaxial_test)
+                                       : frame_test ? &*frame_test
+                                                    : nullptr;
+    const std::string block = biaxial ? "[biaxial]" : frame ? "[picture_frame]" : "the test";
+    const CheckedTable* test_table = biaxial ? biaxial : frame;
     FrictionParameters friction;
     // Contact between neighbouring yarns of one direction (warp-warp, weft-weft): spline
     // contact only.
-    const bool same_direction = contact && contact->boolean("same_direction").value_or(false);
+    // On by default in the shear tests, where sheared yarns come to lie side by side.
+    const bool same_direction = contact && contact->present("same_direction")
+                                    ? contact->boolean("same_direction").value_or(false)
+                                    : frame != nullptr && formulation == ContactFormulation::Spline;
     if (same_direction && formulation == ContactFormulation::Surface)
       contact->error("same_direction", "'same_direction' applies only to type = \"spline\" "
                                        "(the surface contact has no contact within a group in "
@@ -289,10 +348,11 @@ public:
                                        "friction is pointwise Coulomb friction alone in this "
                                        "version)",
                                        spline_only));
-      if (friction.active() && test && test->type == StepType::Explicit)
-        contact->error(key, "friction is not available on the explicit path in this version "
-                            "([biaxial] type = \"explicit\"): its energy balance does not close "
-                            "(docs/formulation.md, \"Friction\")");
+      if (friction.active() && loading && loading->type == StepType::Explicit)
+        contact->error(key, fmt::format("friction is not available on the explicit path in this "
+                                        "version ({} type = \"explicit\"): its energy balance "
+                                        "does not close (docs/formulation.md, \"Friction\")",
+                                        block));
       // Contact damping acts through the velocities of implicit dynamic steps.
       for (const auto& [damping, value] : {std::pair<const char*, double>{"damping", law.damping},
                                            {"tangential_damping", friction.tangential_damping}}) {
@@ -301,12 +361,15 @@ public:
         if (formulation == ContactFormulation::Surface && std::string_view(damping) == "damping")
           contact->error(damping, "surface contact damping is not available in this version; "
                                   "remove the key or set it to 0");
-        else if (test && test->type == StepType::Explicit)
-          contact->error(damping, "contact damping is not available on the explicit path in this "
-                                  "version ([biaxial] type = \"explicit\")");
-        else if (test && test->type == StepType::Static)
-          contact->error(damping, "contact damping acts on the velocities of dynamic steps "
-                                  "([biaxial] type = \"dynamic\"); a static test has none");
+        else if (loading && loading->type == StepType::Explicit)
+          contact->error(damping, fmt::format("contact damping is not available on the explicit "
+                                              "path in this version ({} type = \"explicit\")",
+                                              block));
+        else if (loading && loading->type == StepType::Static)
+          contact->error(damping, fmt::format("contact damping acts on the velocities of dynamic "
+                                              "steps ({} type = \"dynamic\"); a static test has "
+                                              "none",
+                                              block));
       }
     }
     // A TexGen file is read, and its own problems reported, whatever the rest of the deck holds.
@@ -319,7 +382,7 @@ public:
       weave->contact_law = law;
       weave->contact = formulation;
     }
-    if ((!weave && !built) || !test || !diagnostics_.empty())
+    if ((!weave && !built) || !loading || !diagnostics_.empty())
       return {};
     if (weave) {
       try {
@@ -330,14 +393,19 @@ public:
       }
     }
     try {
-      add_biaxial_test(*built, *test);
-    } catch (const std::invalid_argument& e) {
-      // With a TexGen file what the test cannot find (a direction without yarns) is the file's.
-      if (texgen_)
-        fabric->error("texgen", fmt::format("the yarns of {} cannot take the biaxial test: {}",
-                                            texgen_path(*fabric).string(), e.what()));
+      if (biaxial_test)
+        add_biaxial_test(*built, *biaxial_test);
       else
-        biaxial->error(e.what());
+        add_picture_frame_test(*built, *frame_test);
+    } catch (const std::invalid_argument& e) {
+      // With a TexGen file what the test cannot find (a direction without yarns, ends off the
+      // frame) is the file's.
+      if (texgen_)
+        fabric->error("texgen", fmt::format("the yarns of {} cannot take the {} test: {}",
+                                            texgen_path(*fabric).string(),
+                                            biaxial_test ? "biaxial" : "picture frame", e.what()));
+      else
+        test_table->error(e.what());
       return {};
     }
     if (auto title = root_.string("title"))
@@ -354,12 +422,19 @@ public:
 private:
   /// Contacts "warp-warp" and "weft-weft" beside "warp-weft": each direction's splines as one
   /// group in contact within itself (self_contact, between different yarns only), with the
-  /// warp-weft contact's law and margin,
-  /// where the direction has two yarns or more. The splines are named warp<i> and weft<j>.
+  /// warp-weft contact's law and broad-phase margin, where the direction has two yarns or more.
+  /// Yarns of one direction touch side by side, across their width: the contact radius is the
+  /// sections' in-plane semi-axis a (Spline::width / 2), not the spline's own (b), so they lock
+  /// where the geometry says (acos(w / p), docs/shear-tests.md). The splines are named warp<i> and
+  /// weft<j>.
   static void add_same_direction_contacts(Model& model) {
     if (model.spline_contacts.empty())
       return;
     const SplineContactDefinition base = model.spline_contacts.front();
+    // The largest in-plane semi-axis of the yarns' sections (axis 1 lies in the fabric plane).
+    double side_radius = 0;
+    for (const Spline& s : model.splines)
+      side_radius = std::max(side_radius, s.width / 2);
     for (const char* direction : {"warp", "weft"}) {
       SplineContactDefinition c = base;
       c.name = fmt::format("{}-{}", direction, direction);
@@ -367,6 +442,7 @@ private:
       c.group_b.clear();
       c.self_contact = true;
       c.within_spline = false; // a yarn does not touch itself in a fabric
+      c.radius = side_radius;  // side by side: across the width
       for (std::size_t s = 0; s < model.splines.size(); ++s)
         if (model.splines[s].name.rfind(direction, 0) == 0)
           c.group_a.push_back(static_cast<int>(s));
@@ -621,14 +697,48 @@ private:
 
   std::optional<BiaxialParameters> biaxial_parameters(const CheckedTable& t) {
     BiaxialParameters p;
-    bool ok = true;
-    for (const KeySpec& k : kBiaxialKeys)
-      ok = ok && (!t.present(k.name) || t.valid(k.name));
+    bool ok = loading_parameters(t, kBiaxialKeys, "[biaxial]", p);
     if (auto k = t.number("strain_ratio"))
       p.strain_ratio = *k;
     else
       ok = false;
     p.max_strain = t.number("max_strain").value_or(p.max_strain);
+    p.monitors = t.boolean("monitors").value_or(true);
+    if (!ok)
+      return std::nullopt;
+    return p;
+  }
+
+  std::optional<PictureFrameParameters> picture_frame_parameters(const CheckedTable& t) {
+    PictureFrameParameters p;
+    bool ok = loading_parameters(t, kPictureFrameKeys, "[picture_frame]", p);
+    p.max_angle = t.number("max_angle").value_or(p.max_angle);
+    p.central_region = t.number("central_region").value_or(p.central_region);
+    p.pretension = t.number("pretension").value_or(p.pretension);
+    p.pretension_time = t.number("pretension_time").value_or(p.pretension_time);
+    if (auto ends = t.string("ends")) {
+      static constexpr std::string_view kEnds[] = {"pinned", "clamped"};
+      if (*ends == "pinned" || *ends == "clamped") {
+        p.clamped = *ends == "clamped";
+      } else {
+        t.error("ends", fmt::format("expected \"pinned\" or \"clamped\", found \"{}\"{}", *ends,
+                                    suggestion_text(*ends, kEnds)));
+        ok = false;
+      }
+    }
+    if (!ok)
+      return std::nullopt;
+    return p;
+  }
+
+  /// The loading step of a test block (kLoadingKeys); `block` names it in messages
+  /// ("[biaxial]"). Every key of `keys` that is present must be valid. False when something
+  /// was wrong (reported).
+  bool loading_parameters(const CheckedTable& t, std::span<const KeySpec> keys,
+                          std::string_view block, LoadingParameters& p) {
+    bool ok = true;
+    for (const KeySpec& k : keys)
+      ok = ok && (!t.present(k.name) || t.valid(k.name));
     p.loading_time = t.number("loading_time").value_or(p.loading_time);
     if (auto type = t.string("type")) {
       static constexpr std::string_view kTypes[] = {"dynamic", "static", "explicit"};
@@ -648,9 +758,9 @@ private:
     if (auto ramp = t.string("ramp")) {
       static constexpr std::string_view kRamps[] = {"linear", "smooth"};
       if (*ramp == "linear") {
-        p.ramp = BiaxialRamp::Linear;
+        p.ramp = LoadingRamp::Linear;
       } else if (*ramp == "smooth") {
-        p.ramp = BiaxialRamp::Smooth;
+        p.ramp = LoadingRamp::Smooth;
       } else {
         t.error("ramp", fmt::format("expected \"linear\" or \"smooth\", found \"{}\"{}", *ramp,
                                     suggestion_text(*ramp, kRamps)));
@@ -661,21 +771,21 @@ private:
       t.error("newmark", "'newmark' applies only to type = \"dynamic\"; this test is \"static\"");
       ok = false;
     }
-    // The implicit keys have no meaning on an explicit test: its step is [biaxial.explicit]'s.
+    // The implicit keys have no meaning on an explicit test: its step is [<test>.explicit]'s.
     // (The explicit table may come with an implicit test: a study then runs it on both paths.)
     if (p.type == StepType::Explicit)
       for (std::string_view k :
            {"dt", "dt_min", "dt_max", "max_iterations", "tolerance", "newmark", "output_every"})
         if (t.present(k)) {
           t.error(k, fmt::format("'{}' applies only to implicit (static, dynamic) tests; this test "
-                                 "is \"explicit\": its step is set in [biaxial.explicit]",
-                                 k));
+                                 "is \"explicit\": its step is set in [{}.explicit]",
+                                 k, block.substr(1, block.size() - 2)));
           ok = false;
         }
     if (const CheckedTable* x = t.table("explicit")) {
       for (const KeySpec& k : kExplicitKeys)
         ok = ok && (!x->present(k.name) || x->valid(k.name));
-      BiaxialExplicit& e = p.explicit_;
+      ExplicitLoading& e = p.explicit_;
       e.mass_scaling_dt = x->number("mass_scaling_dt").value_or(e.mass_scaling_dt);
       e.dt = x->number("dt").value_or(e.dt);
       e.safety_factor = x->number("safety_factor").value_or(e.safety_factor);
@@ -734,10 +844,7 @@ private:
     }
     p.output_every =
         static_cast<int>(std::min<long long>(t.integer("output_every").value_or(1), 1'000'000'000));
-    p.monitors = t.boolean("monitors").value_or(true);
-    if (!ok)
-      return std::nullopt;
-    return p;
+    return ok;
   }
 
   bool texgen_; ///< [fabric] names a TexGen file

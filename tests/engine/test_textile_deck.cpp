@@ -172,6 +172,9 @@ TEST(FabricDeck, SameDirectionContactAddsWarpWarpAndWeftWeft) {
       EXPECT_EQ(m.splines[s].name.rfind(direction, 0), 0u) << m.splines[s].name;
     EXPECT_EQ(c.law.penalty, cross.law.penalty);
     EXPECT_DOUBLE_EQ(c.friction.mu_static, 0.2); // the deck's friction on all three
+    // Side by side, across the width: the in-plane semi-axis a, not the spline's radius b.
+    EXPECT_DOUBLE_EQ(c.radius, 1e-3);
+    EXPECT_DOUBLE_EQ(c.margin, cross.margin);
   }
   // Spline contact only: said at the key.
   const auto e =
