@@ -111,6 +111,10 @@ TEST(BiasSpecimen, EveryNodeLiesInsideAndEveryYarnEndsOnTheBoundary) {
         const double d = to_boundary(p, node(f, n));
         if (d <= tol) {
           ++on_boundary;
+          // Exactly: the builder sets the boundary coordinate.
+          const Eigen::Vector3d& x = node(f, n);
+          EXPECT_TRUE(std::abs(x.x()) == hw || std::abs(x.y()) == hh)
+              << yarn_name(y) << " ends at " << x.transpose();
           continue;
         }
         // Else the yarn ends at its outer crossing, less than the short-end fraction of a spacing
