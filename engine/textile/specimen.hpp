@@ -65,6 +65,9 @@ inline constexpr double kBiasShortEndFraction = 0.05;
 /// equal elements; the end node lies exactly on the boundary (the boundary coordinate is set, not
 /// computed). When that leftover is below kBiasShortEndFraction of the spacing along the yarn,
 /// the yarn ends at its outer crossing instead (its end node within that distance of the boundary).
+/// At 45 degrees with equal spacings every yarn end of one side has the same leftover (W = 20
+/// spacings: 10 sqrt(2) spacings less whole ones, 0.14 spacing; one spacing more where a corner
+/// stub was dropped), so the rule ends all the yarns of a side at their crossings or none.
 ///
 /// Node sets, besides those of finish_fabric (which also adds the splines, the surfaces and the
 /// "warp-weft" contact as build_weave): "clamp.bottom" (every node with y <= -H/2 + clamp_length,
