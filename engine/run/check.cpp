@@ -59,13 +59,14 @@ std::string check_report(const Model& model) {
   if (model.picture_frame) {
     const PictureFrameTest& f = *model.picture_frame;
     constexpr double deg = 180 / 3.14159265358979323846;
-    out +=
-        fmt::format("picture frame: side {:g} mm, to a shear angle of {:g} degrees, yarn ends "
-                    "{} ({} ends on the arms); the shear angle measured at {} crossings of "
-                    "the central {:g} % of the side; neighbouring parallel yarns touch at "
-                    "{:.2f} degrees (acos(w / p))\n",
-                    1e3 * f.side, f.max_angle * deg, f.clamped ? "clamped" : "pinned",
-                    f.ends.size(), f.central.size(), 100 * f.central_region, f.locking_angle * deg);
+    out += fmt::format(
+        "picture frame: side {:g} mm, pretension {:g} %, to a shear angle of {:g} "
+        "degrees, yarn ends {} ({} ends on the arms); the shear angle measured at {} crossings of "
+        "the central {:g} % of the side; neighbouring parallel yarns touch at "
+        "{:.2f} degrees (acos(w / p))\n",
+        1e3 * f.side, 100 * (f.stretch.value.back() - 1), f.max_angle * deg,
+        f.clamped ? "clamped" : "pinned", f.ends.size(), f.central.size(), 100 * f.central_region,
+        f.locking_angle * deg);
   }
   out += fmt::format("sections: {}, node sets: {}, splines: {}, surfaces: {}, monitors: {}\n",
                      model.sections.size(), model.node_sets.size(), model.splines.size(),

@@ -13,8 +13,15 @@ for deck in "$repo"/examples/*.toml; do
     # twice the same 200 increments (7 s in Release, over 3 minutes under the sanitizers).
     double-helix) continue ;;
   esac
-  if ! "$yarnsim" run "$deck" -o "$work/$name" -q --threads 2 > "$work/$name.log" 2>&1; then
-    echo "FAIL $name"; cat "$work/$name.log"; fail=1; continue
+  # The picture frame runs to 65 degrees, past locking (about 9 minutes in Release): its first 40
+  # increments here (the pretension and the start of the shear), which must stop as asked (exit
+  # 130) with their results; PictureFrame.* run a smaller frame whole.
+  extra=(); expect=0
+  if [ "$name" = picture-frame ]; then extra=(--stop-after 40); expect=130; fi
+  "$yarnsim" run "$deck" -o "$work/$name" -q --threads 2 "${extra[@]}" > "$work/$name.log" 2>&1
+  status=$?
+  if [ "$status" -ne "$expect" ]; then
+    echo "FAIL $name (exit $status, expected $expect)"; cat "$work/$name.log"; fail=1; continue
   fi
   for f in results.h5 results.xdmf; do
     [ -s "$work/$name/$f" ] || { echo "FAIL $name: no $f"; fail=1; }

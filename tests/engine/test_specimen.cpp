@@ -350,7 +350,9 @@ TEST(BiasSpecimen, WithoutAClampLengthTheClampsHoldTheYarnEndsOnTheClampedEdges)
     EXPECT_EQ(node_set(f, name).size(), 2u * 13u) << name;
 }
 
-TEST(BiasSpecimen, TwentyByFortySpacingsBuildsQuicklyWithTheExpectedCounts) {
+TEST(BiasSpecimen, TwentyByFortySpacingsBuildsWithTheExpectedCounts) {
+  // Tests do not depend on timing: the build time is printed (about 1 to 7 ms in Release), not
+  // checked.
   const BiasSpecimenParameters p = specimen(20, 40, 2);
   const auto start = std::chrono::steady_clock::now();
   const Fabric f = build_bias_specimen(p);
@@ -359,7 +361,6 @@ TEST(BiasSpecimen, TwentyByFortySpacingsBuildsQuicklyWithTheExpectedCounts) {
   std::cout << "[ specimen ] 20 x 40 spacings: " << f.yarns.size() << " yarns, "
             << f.model.elements.size() << " elements, " << f.model.nodes.size()
             << " nodes, built in " << seconds * 1e3 << " ms\n";
-  EXPECT_LT(seconds, 0.5);
 
   // Yarn length per area: 1 / spacing per direction. Crossings per yarn direction: the area over
   // a spacing squared.
