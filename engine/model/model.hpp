@@ -245,9 +245,6 @@ struct BiaxialTest {
   double length_weft = 0;    ///< m
   /// Per yarn: node sets of its start (x or y minimum) and end node.
   std::vector<int> warp_start, warp_end, weft_start, weft_end;
-  /// Uniaxial tension: only the warp is pulled, the weft yarns' ends are free (their strain is
-  /// read from the ends' positions, their force is zero).
-  bool uniaxial = false;
 };
 
 /// A crossing of a warp and a weft yarn where a shear test measures the angle between the yarns:
@@ -280,18 +277,6 @@ struct PictureFrameTest {
   double locking_angle = 0;           ///< rad, acos(w / p): neighbouring parallel yarns touch
 };
 
-/// A bias-extension shear test (docs/shear-tests.md): an H x W specimen with the yarns at +-45
-/// degrees to its length (y), clamped over a length at both ends; the bottom clamp stays, the
-/// top one moves by d(t) along y.
-struct BiasExtensionTest {
-  double height = 0, width = 0, clamp_length = 0;    ///< m
-  TimeTable displacement = TimeTable::constant(0.0); ///< d(t), m
-  double max_displacement = 0;                       ///< m
-  int clamp_bottom = -1, clamp_top = -1;             ///< node sets
-  std::vector<CrossingNodes> central;                ///< crossings of the central zone (zone C)
-  double locking_angle = 0;                          ///< rad
-};
-
 struct Model {
   std::string title;
   std::vector<Eigen::Vector3d> nodes; ///< reference positions, m
@@ -308,9 +293,8 @@ struct Model {
   std::vector<SplineContactDefinition> spline_contacts;
   std::vector<Surface> surfaces;
   std::vector<SurfaceContactDefinition> surface_contacts;
-  std::optional<BiaxialTest> biaxial; ///< also uniaxial tension (BiaxialTest::uniaxial)
+  std::optional<BiaxialTest> biaxial;
   std::optional<PictureFrameTest> picture_frame;
-  std::optional<BiasExtensionTest> bias_extension;
   /// Optional user labels of nodes (deck ids); empty means node i is labelled i + 1.
   std::vector<long> node_labels;
 

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <numbers>
 
 namespace yarnsim {
 
@@ -58,7 +59,7 @@ std::string check_report(const Model& model) {
   }
   if (model.picture_frame) {
     const PictureFrameTest& f = *model.picture_frame;
-    constexpr double deg = 180 / 3.14159265358979323846;
+    constexpr double deg = 180 / std::numbers::pi;
     out += fmt::format(
         "picture frame: side {:g} mm, pretension {:g} %, to a shear angle of {:g} "
         "degrees, yarn ends {} ({} ends on the arms); the shear angle measured at {} crossings of "

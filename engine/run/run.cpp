@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 #include <map>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <system_error>
 #include <unistd.h>
@@ -182,7 +183,7 @@ protected:
   CsvFile file_{"curves.csv", {"time [s]"}};
 };
 
-/// The force-strain curves of a biaxial (or uniaxial) test (paper §5, Fig. 3): per increment
+/// The force-strain curves of a biaxial test (paper §5, Fig. 3): per increment
 /// the reading of the test (textile::read_biaxial), then the force of every yarn.
 class BiaxialCurves final : public TestCurves {
 public:
@@ -267,7 +268,7 @@ public:
   std::string closing_note() const override {
     if (!parallel_)
       return {};
-    const double geometry = test_.locking_angle * 180 / 3.14159265358979323846;
+    const double geometry = test_.locking_angle * 180 / std::numbers::pi;
     if (locked_at_)
       return fmt::format("neighbouring parallel yarns first touched at a frame angle of {:.2f} "
                          "degrees (the yarn widths and spacings predict {:.2f} degrees)",

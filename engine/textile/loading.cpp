@@ -57,11 +57,19 @@ SolutionStep loading_step(const LoadingParameters& p, double t0, std::string_vie
   return step;
 }
 
+namespace {
+
+/// value s(tau) of the quintic smooth step, multiplied in this order (the order of the first
+/// version, so that tabulated ramps stay bitwise the same).
+double smooth_step(double value, double tau) {
+  return value * tau * tau * tau * (10 + tau * (-15 + 6 * tau));
+}
+
+} // namespace
+
 double ramp_fraction(LoadingRamp shape, double tau) {
   tau = std::clamp(tau, 0.0, 1.0);
-  if (shape == LoadingRamp::Linear)
-    return tau;
-  return tau * tau * tau * (10 + tau * (-15 + 6 * tau));
+  return shape == LoadingRamp::Linear ? tau : smooth_step(1.0, tau);
 }
 
 TimeTable ramp_table(double t0, double t1, double value, LoadingRamp shape) {
@@ -74,8 +82,7 @@ TimeTable ramp_table(double t0, double t1, double value, LoadingRamp shape) {
   for (int i = 0; i <= kIntervals; ++i) {
     const double tau = static_cast<double>(i) / kIntervals;
     table.time.push_back(i == kIntervals ? t1 : t0 + tau * (t1 - t0));
-    // The expression of ramp_fraction, multiplied in this order since the first version.
-    table.value.push_back(value * tau * tau * tau * (10 + tau * (-15 + 6 * tau)));
+    table.value.push_back(smooth_step(value, tau));
   }
   return table;
 }

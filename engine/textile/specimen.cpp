@@ -1,5 +1,7 @@
 #include "engine/textile/specimen.hpp"
 
+#include "engine/textile/weave_geometry.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -19,25 +21,7 @@ void check(const BiasSpecimenParameters& p) {
     throw std::invalid_argument("bias specimen: " + message);
   };
   const WeaveParameters& w = p.weave;
-  if (w.pattern.size() == 0)
-    fail("expected a non-empty pattern");
-  for (Eigen::Index i = 0; i < w.pattern.rows(); ++i)
-    for (Eigen::Index j = 0; j < w.pattern.cols(); ++j)
-      if (w.pattern(i, j) != 0 && w.pattern(i, j) != 1)
-        fail(fmt::format("expected pattern entries 0 or 1, found {} at ({}, {})", w.pattern(i, j),
-                         i, j));
-  for (auto [name, v] : {std::pair{"spacing_warp", w.spacing_warp},
-                         {"spacing_weft", w.spacing_weft},
-                         {"a", w.a},
-                         {"b", w.b}})
-    if (!(v > 0) || !std::isfinite(v))
-      fail(fmt::format("expected {} > 0, found {}", name, v));
-  if (!(w.gap >= 0) || !std::isfinite(w.gap))
-    fail(fmt::format("expected gap >= 0, found {}", w.gap));
-  if (!(w.contact_radius >= 0) || !std::isfinite(w.contact_radius))
-    fail(fmt::format("expected contact_radius >= 0, found {}", w.contact_radius));
-  if (w.elements_per_spacing < 1)
-    fail(fmt::format("expected elements_per_spacing >= 1, found {}", w.elements_per_spacing));
+  check_yarn_parameters(w, "bias specimen");
   const double spacing = std::max(w.spacing_warp, w.spacing_weft);
   if (!(p.height >= 2 * spacing) || !std::isfinite(p.height))
     fail(
@@ -56,57 +40,6 @@ void check(const BiasSpecimenParameters& p) {
 
 /// Sides of the rectangle, as bits: an end at a corner is on two.
 enum Side : unsigned { kLeft = 1, kRight = 2, kBottom = 4, kTop = 8 };
-
-/// A node of a yarn's profile: in-plane coordinate s along the yarn, m, and height z, m.
-struct ProfilePoint {
-  double s;
-  double z;
-};
-
-/// The profile of one yarn (2 m + 1 points): from s_start to the first crossing straight at its
-/// height (no such part when s_start is the first crossing), the cubic Hermite
-/// z0 + (z1 - z0)(3t^2 - 2t^3) between neighbouring crossings with per_spacing elements per
-/// spacing, straight from the last crossing to s_end. `crossings` (increasing, at least 2) and
-/// `z` give the crossings; a crossing's point has exactly the coordinate given.
-std::vector<ProfilePoint> yarn_profile(double s_start, double s_end,
-                                       const std::vector<double>& crossings,
-                                       const std::vector<double>& z, double spacing,
-                                       int per_spacing) {
-  std::vector<ProfilePoint> out;
-  // A straight part of `elements` elements from s0 to s1 (the point at s1 placed exactly).
-  auto straight = [&](double s0, double s1, double height, int elements, bool include_first) {
-    for (int k = include_first ? 0 : 1; k <= 2 * elements; ++k) {
-      const double t = static_cast<double>(k) / (2 * elements);
-      out.push_back({k == 2 * elements ? s1 : (1 - t) * s0 + t * s1, height});
-    }
-  };
-  auto end_elements = [&](double length) {
-    return std::max(1, static_cast<int>(std::lround(length / spacing * per_spacing)));
-  };
-  if (s_start < crossings.front())
-    straight(s_start, crossings.front(), z.front(), end_elements(crossings.front() - s_start),
-             true);
-  else
-    out.push_back({crossings.front(), z.front()});
-  for (std::size_t k = 0; k + 1 < crossings.size(); ++k) {
-    const double s0 = crossings[k];
-    const double s1 = crossings[k + 1];
-    // Neighbouring crossings are one spacing apart; a wider interval (not met in a rectangle)
-    // gets as many elements per spacing.
-    const int elements =
-        per_spacing * std::max(1, static_cast<int>(std::lround((s1 - s0) / spacing)));
-    for (int i = 1; i <= 2 * elements; ++i) {
-      const double t = static_cast<double>(i) / (2 * elements);
-      const double w = t * t * (3 - 2 * t); // cubic Hermite, zero slope at both crossings
-      out.push_back(i == 2 * elements
-                        ? ProfilePoint{s1, z[k + 1]}
-                        : ProfilePoint{s0 + t * (s1 - s0), z[k] + (z[k + 1] - z[k]) * w});
-    }
-  }
-  if (s_end > crossings.back())
-    straight(crossings.back(), s_end, z.back(), end_elements(s_end - crossings.back()), false);
-  return out;
-}
 
 /// Where a line leaves the rectangle |x| <= hw, |y| <= hh: the line is o + t d (d a unit vector
 /// with both components non-zero); returns the parameters t_in <= t_out of entry and exit and the
@@ -226,10 +159,7 @@ Fabric build_bias_specimen(const BiasSpecimenParameters& p) {
   model.title = fmt::format("bias extension specimen {} x {} mm, yarns at {} degrees, {} warp x {} "
                             "weft yarns",
                             p.height * 1e3, p.width * 1e3, p.angle, warp_b.size(), weft_a.size());
-  const Section section =
-      ellipse_yarn_section("yarn", w.a, w.b, w.material, w.reduce_lower_inertia, w.shear_factor);
-  model.materials.push_back(w.material.resolve(std::numbers::pi * w.a * w.b, "yarn"));
-  model.sections.push_back(section);
+  add_yarn_section(model, w);
   const std::vector<Eigen::Vector3d> up{Eigen::Vector3d::UnitZ()};
 
   // The yarn ends and their sides, for the clamp and edge sets.
@@ -259,7 +189,7 @@ Fabric build_bias_specimen(const BiasSpecimenParameters& p) {
     const double s_end = c.t_out - s.back() < short_end ? s.back() : c.t_out;
     std::vector<Eigen::Vector3d> points;
     for (const ProfilePoint& q :
-         yarn_profile(s_start, s_end, s, z, spacing, w.elements_per_spacing)) {
+         crimped_profile(s_start, s_end, s, z, spacing, w.elements_per_spacing)) {
       const Eigen::Vector2d x = warp ? point(q.s, offset) : point(offset, q.s);
       points.emplace_back(x.x(), x.y(), q.z);
     }

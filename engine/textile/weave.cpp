@@ -1,5 +1,7 @@
 #include "engine/textile/weave.hpp"
 
+#include "engine/textile/weave_geometry.hpp"
+
 #include <cmath>
 #include <fmt/format.h>
 #include <numbers>
@@ -58,30 +60,13 @@ namespace {
 
 void check(const WeaveParameters& p) {
   auto fail = [](const std::string& message) { throw std::invalid_argument("weave: " + message); };
-  if (p.pattern.size() == 0)
-    fail("expected a non-empty pattern");
-  for (Eigen::Index i = 0; i < p.pattern.rows(); ++i)
-    for (Eigen::Index j = 0; j < p.pattern.cols(); ++j)
-      if (p.pattern(i, j) != 0 && p.pattern(i, j) != 1)
-        fail(fmt::format("expected pattern entries 0 or 1, found {} at ({}, {})", p.pattern(i, j),
-                         i, j));
+  check_yarn_parameters(p, "weave");
   if (p.n_warp < 1 || p.n_weft < 1)
     fail(fmt::format("expected at least one yarn per direction, found {} warp and {} weft",
                      p.n_warp, p.n_weft));
-  for (auto [name, v] : {std::pair{"spacing_warp", p.spacing_warp},
-                         {"spacing_weft", p.spacing_weft},
-                         {"length_warp", p.length_warp},
-                         {"length_weft", p.length_weft},
-                         {"a", p.a},
-                         {"b", p.b}})
+  for (auto [name, v] : {std::pair{"length_warp", p.length_warp}, {"length_weft", p.length_weft}})
     if (!(v > 0) || !std::isfinite(v))
       fail(fmt::format("expected {} > 0, found {}", name, v));
-  if (!(p.gap >= 0) || !std::isfinite(p.gap))
-    fail(fmt::format("expected gap >= 0, found {}", p.gap));
-  if (!(p.contact_radius >= 0))
-    fail(fmt::format("expected contact_radius >= 0, found {}", p.contact_radius));
-  if (p.elements_per_spacing < 1)
-    fail(fmt::format("expected elements_per_spacing >= 1, found {}", p.elements_per_spacing));
   const double tol = 1e-9;
   if (p.length_warp < (p.n_weft - 1) * p.spacing_weft * (1 - tol))
     fail(fmt::format("expected length_warp >= (n_weft - 1) spacing_weft = {} (a warp yarn must "
@@ -93,53 +78,25 @@ void check(const WeaveParameters& p) {
 }
 
 /// Points along one yarn: in-plane coordinate s from -length/2 to length/2, crossings at
-/// s_j = (j - (n - 1)/2) spacing with heights z_j, Hermite between crossings, straight beyond.
-/// Returns (s, z) of the 2 m + 1 nodes.
+/// s_j = (j - (n - 1)/2) spacing with heights z_j, crimped_profile between them and straight
+/// beyond (none when the yarn ends at its outer crossings). Returns (s, z) of the 2 m + 1 nodes.
 std::vector<Eigen::Vector2d> yarn_profile(double length, double spacing,
                                           const std::vector<double>& z, int per_spacing) {
   const int n = static_cast<int>(z.size());
   // The same expression as the crossing yarn's coordinate, so both meet exactly.
-  auto crossing = [&](int j) { return (j - (n - 1) / 2.0) * spacing; };
-  const double first = crossing(0);
-  const double last = crossing(n - 1);
+  std::vector<double> crossings;
+  for (int j = 0; j < n; ++j)
+    crossings.push_back((j - (n - 1) / 2.0) * spacing);
+  const double last = crossings.back();
   const double end = std::max(length / 2, last);
-  const double overhang = end - last;
-  // Elements of a straight end: as many per spacing as between crossings, at least one, none when
-  // the yarn ends at its outer crossing.
-  const int end_elements =
-      overhang <= 1e-9 * spacing
-          ? 0
-          : std::max(1, static_cast<int>(std::lround(overhang / spacing * per_spacing)));
-
+  const bool overhang = end - last > 1e-9 * spacing;
+  if (n == 1 && !overhang) // a single crossing and no overhang: one straight element of one spacing
+    return {{-spacing / 2, z.front()}, {0, z.front()}, {spacing / 2, z.front()}};
   std::vector<Eigen::Vector2d> out;
-  auto straight = [&](double s0, double s1, double height, bool include_first) {
-    for (int k = include_first ? 0 : 1; k <= 2 * end_elements; ++k) {
-      const double t = static_cast<double>(k) / (2 * end_elements);
-      out.emplace_back((1 - t) * s0 + t * s1, height);
-    }
-  };
-  if (end_elements > 0)
-    straight(-end, first, z.front(), true);
-  else
-    out.emplace_back(first, z.front());
-  for (int j = 0; j + 1 < n; ++j) {
-    const double s0 = crossing(j);
-    for (int k = 1; k <= 2 * per_spacing; ++k) {
-      const double t = static_cast<double>(k) / (2 * per_spacing);
-      const double w = t * t * (3 - 2 * t); // cubic Hermite, zero slope at both crossings
-      // The last point of an interval is the next crossing itself: place it exactly.
-      const double s = k == 2 * per_spacing ? crossing(j + 1) : s0 + t * spacing;
-      out.emplace_back(
-          s, k == 2 * per_spacing
-                 ? z[static_cast<std::size_t>(j + 1)]
-                 : z[static_cast<std::size_t>(j)] +
-                       (z[static_cast<std::size_t>(j + 1)] - z[static_cast<std::size_t>(j)]) * w);
-    }
-  }
-  if (end_elements > 0)
-    straight(last, end, z.back(), false);
-  if (out.size() < 3) // a single crossing and no overhang: one straight element of one spacing
-    out = {{-spacing / 2, z.front()}, {0, z.front()}, {spacing / 2, z.front()}};
+  for (const ProfilePoint& q :
+       crimped_profile(overhang ? -end : crossings.front(), overhang ? end : last, crossings, z,
+                       spacing, per_spacing))
+    out.emplace_back(q.s, q.z);
   return out;
 }
 
@@ -156,10 +113,7 @@ Fabric build_weave(const WeaveParameters& p) {
   Fabric fabric;
   Model& model = fabric.model;
   model.title = fmt::format("woven fabric, {} warp x {} weft yarns", p.n_warp, p.n_weft);
-  const Section section =
-      ellipse_yarn_section("yarn", p.a, p.b, p.material, p.reduce_lower_inertia, p.shear_factor);
-  model.materials.push_back(p.material.resolve(std::numbers::pi * p.a * p.b, "yarn"));
-  model.sections.push_back(section);
+  add_yarn_section(model, p);
   const std::vector<Eigen::Vector3d> up{Eigen::Vector3d::UnitZ()};
 
   for (int i = 0; i < p.n_warp; ++i) {

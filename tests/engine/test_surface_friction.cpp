@@ -136,9 +136,10 @@ TEST(SurfaceFriction, DraggedSliderSticksThenSlipsWithAStaticPeak) {
       // Newton's rate in slip: the correct digits at least double per iteration.
       const std::vector<double>& r = s.residuals;
       for (std::size_t k = 1; k + 1 < r.size(); ++k)
-        if (r[k] > 1e-12 && r[k] < 1e-2)
+        if (r[k] > 1e-12 && r[k] < 1e-2) {
           EXPECT_LT(std::log10(r[k + 1]), 2 * std::log10(r[k]) + 1.5)
               << "t = " << s.time << ", iteration " << k;
+        }
       EXPECT_LE(r.size(), 7u) << "t = " << s.time;
     }
   }
