@@ -175,6 +175,8 @@ public:
   /// Reports a problem with the table as a whole.
   void error(std::string_view message) const;
   Diagnostics& diagnostics() const { return *diagnostics_; }
+  /// The spec the table was checked against.
+  const TableSpec& spec() const { return *spec_; }
 
 private:
   const KeySpec& spec_of(std::string_view key) const;

@@ -235,6 +235,9 @@ struct SurfaceContactDefinition {
   FrictionParameters friction{};
 };
 
+/// The two yarn directions of a woven fabric.
+enum class FabricDirection { Warp, Weft };
+
 /// A virtual biaxial tension test on a fabric (paper §5): which node sets hold the yarn ends, so
 /// the run can write the force-strain curves (curves.csv). Warp yarns run along x, weft along y.
 struct BiaxialTest {
@@ -245,6 +248,11 @@ struct BiaxialTest {
   double length_weft = 0;    ///< m
   /// Per yarn: node sets of its start (x or y minimum) and end node.
   std::vector<int> warp_start, warp_end, weft_start, weft_end;
+  /// Per yarn (warp yarns, then weft, as above): its nodes in order along it (the crimp).
+  std::vector<std::vector<int>> yarn_nodes;
+  /// Set: a uniaxial tension test. Only this direction's yarn ends are pulled (by max_strain);
+  /// the other direction's ends are free (no prescribed DOF) and strain_ratio has no meaning.
+  std::optional<FabricDirection> uniaxial;
 };
 
 /// A crossing of a warp and a weft yarn where a shear test measures the angle between the yarns:
@@ -277,6 +285,25 @@ struct PictureFrameTest {
   double locking_angle = 0;           ///< rad, acos(w / p): neighbouring parallel yarns touch
 };
 
+/// A bias extension test (docs/shear-tests.md): a specimen cut with its yarns at +-45 degrees to
+/// y, centred on the origin, clamped over clamp_length at both ends; the bottom clamp holds its
+/// nodes (all six DOFs), the top clamp moves them by d(t) along y (rotations held).
+struct BiasExtensionTest {
+  double height = 0;       ///< H, the free length between the clamps, m
+  double width = 0;        ///< W, m
+  double clamp_length = 0; ///< m, at each end (the specimen is H + 2 clamp_length long)
+  TimeTable displacement = TimeTable::constant(0.0); ///< d(t) of the top clamp along y, m
+  double max_angle = 0;  ///< rad, the central zone's ideal shear angle at the end of the step
+  int bottom_clamp = -1; ///< node set held
+  int top_clamp = -1;    ///< node set pulled
+  /// Crossings of the central part of zone C, |x| + |y| <= central_region (H - W) / 2 in the
+  /// reference (zone C, where the yarns run from free edge to free edge, is central_region = 1).
+  std::vector<CrossingNodes> central;
+  double central_region = 0.5;
+  std::vector<CrossingNodes> all; ///< every crossing: the local shear angle of the pictures
+  double locking_angle = 0;       ///< rad, acos(w / p): neighbouring parallel yarns touch
+};
+
 struct Model {
   std::string title;
   std::vector<Eigen::Vector3d> nodes; ///< reference positions, m
@@ -295,6 +322,7 @@ struct Model {
   std::vector<SurfaceContactDefinition> surface_contacts;
   std::optional<BiaxialTest> biaxial;
   std::optional<PictureFrameTest> picture_frame;
+  std::optional<BiasExtensionTest> bias_extension;
   /// Optional user labels of nodes (deck ids); empty means node i is labelled i + 1.
   std::vector<long> node_labels;
 

@@ -53,9 +53,16 @@ std::string check_report(const Model& model) {
                      6 * n - static_cast<std::size_t>(sim.assembler().n_equations()));
   if (model.biaxial) {
     const BiaxialTest& b = *model.biaxial;
-    out +=
-        fmt::format("yarns: {} warp + {} weft (biaxial test, k = {:g}, to {:g} % strain)\n",
-                    b.warp_start.size(), b.weft_start.size(), b.strain_ratio, 100 * b.max_strain);
+    if (b.uniaxial)
+      out += fmt::format("yarns: {} warp + {} weft (uniaxial test: the {} pulled to {:g} % "
+                         "strain, the {} yarns' ends free)\n",
+                         b.warp_start.size(), b.weft_start.size(),
+                         *b.uniaxial == FabricDirection::Warp ? "warp" : "weft", 100 * b.max_strain,
+                         *b.uniaxial == FabricDirection::Warp ? "weft" : "warp");
+    else
+      out +=
+          fmt::format("yarns: {} warp + {} weft (biaxial test, k = {:g}, to {:g} % strain)\n",
+                      b.warp_start.size(), b.weft_start.size(), b.strain_ratio, 100 * b.max_strain);
   }
   if (model.picture_frame) {
     const PictureFrameTest& f = *model.picture_frame;
@@ -68,6 +75,19 @@ std::string check_report(const Model& model) {
         1e3 * f.side, 100 * (f.stretch.value.back() - 1), f.max_angle * deg,
         f.clamped ? "clamped" : "pinned", f.ends.size(), f.central.size(), 100 * f.central_region,
         f.locking_angle * deg);
+  }
+  if (model.bias_extension) {
+    const BiasExtensionTest& b = *model.bias_extension;
+    constexpr double deg = 180 / std::numbers::pi;
+    out += fmt::format(
+        "bias extension: specimen {:g} x {:g} mm (free length {:g} mm, clamps {:g} mm), yarns at "
+        "+-45 degrees, {} + {} nodes clamped; the top clamp travels {:g} mm (an ideal central "
+        "shear angle of {:g} degrees); the shear angle measured at {} crossings of the central "
+        "{:g} % of zone C; neighbouring parallel yarns touch at {:.2f} degrees (acos(w / p))\n",
+        1e3 * b.width, 1e3 * (b.height + 2 * b.clamp_length), 1e3 * b.height, 1e3 * b.clamp_length,
+        model.node_sets[b.bottom_clamp].nodes.size(), model.node_sets[b.top_clamp].nodes.size(),
+        1e3 * b.displacement.value.back(), b.max_angle * deg, b.central.size(),
+        100 * b.central_region, b.locking_angle * deg);
   }
   out += fmt::format("sections: {}, node sets: {}, splines: {}, surfaces: {}, monitors: {}\n",
                      model.sections.size(), model.node_sets.size(), model.splines.size(),

@@ -8,6 +8,7 @@
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/textile/biaxial.hpp"
+#include "engine/textile/shear_kinematics.hpp"
 #include "engine/textile/shear_tests.hpp"
 #include "yarnsim/version.hpp"
 
@@ -16,10 +17,13 @@
 #include <cstdio>
 #include <deque>
 #include <fmt/format.h>
+#include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <sstream>
 #include <system_error>
 #include <unistd.h>
 
@@ -171,6 +175,9 @@ public:
   virtual std::vector<std::string> scalar_names() const = 0;
   /// Said once at the end of the run (empty: nothing).
   virtual std::string closing_note() const { return {}; }
+  /// A restart: the curves' first `rows` data rows in `file` (curves.csv as the checkpoint left
+  /// it) are the run's history so far. Throws std::runtime_error when the file cannot give it.
+  virtual void resume(const std::filesystem::path& /*file*/, long /*rows*/) {}
 
   /// The row of curves.csv for values v of time.
   CsvRow row(double time, const std::vector<double>& v) const {
@@ -194,15 +201,18 @@ public:
       file_.columns.push_back(fmt::format("warp{} [N]", i + 1));
     for (std::size_t i = 0; i < test_.weft_start.size(); ++i)
       file_.columns.push_back(fmt::format("weft{} [N]", i + 1));
+    file_.columns.insert(file_.columns.end(), {"crimp_warp [-]", "crimp_weft [-]"});
   }
 
   /// Strains and forces of the last converged increment: strain_warp, strain_weft, force_warp,
-  /// force_weft, then per yarn.
+  /// force_weft, then per yarn, then the crimps. A uniaxial test's free direction has no
+  /// prescribed DOF: its forces are 0.
   std::vector<double> values(const Simulation& sim) override {
     const textile::BiaxialReading r =
         textile::read_biaxial(model_, sim.state().x_n, sim.reactions());
     std::vector<double> out{r.strain_warp, r.strain_weft, r.force_warp, r.force_weft};
     out.insert(out.end(), r.yarn_forces.begin(), r.yarn_forces.end());
+    out.insert(out.end(), {r.crimp_warp, r.crimp_weft});
     return out;
   }
 
@@ -231,6 +241,9 @@ public:
       parallel_ = parallel_ || (c.self_contact && !c.within_spline);
     if (parallel_)
       file_.columns.push_back("parallel_contacts [-]");
+    friction_ = has_friction(model);
+    if (friction_)
+      file_.columns.push_back("friction_dissipation [J]");
   }
 
   std::vector<double> values(const Simulation& sim) override {
@@ -258,6 +271,8 @@ public:
       if (n > 0 && !locked_at_)
         locked_at_ = r.frame_angle;
     }
+    if (friction_)
+      out.push_back(sim.contact() ? sim.contact()->summary().dissipation : 0.0);
     return out;
   }
 
@@ -282,7 +297,97 @@ private:
   const Model& model_;
   const PictureFrameTest& test_;
   bool parallel_ = false;
+  bool friction_ = false;
   std::optional<double> locked_at_; ///< degrees, the frame angle of the first parallel contact
+};
+
+/// The curves of a bias extension (docs/shear-tests.md): the top clamp's travel and pull, the
+/// central zone's ideal and measured shear angles, the benchmark's normalised shear force by its
+/// energy method (marched over the increments so far: each value needs only the curve below its
+/// angle), the stored energies and, with friction, the energy it dissipated.
+class BiasExtensionCurves final : public TestCurves {
+public:
+  explicit BiasExtensionCurves(const Model& model)
+      : model_(model), test_(*model.bias_extension), friction_(has_friction(model)) {
+    file_.columns.insert(file_.columns.end(), {"displacement [m]", "force [N]", "ideal_angle [deg]",
+                                               "measured_angle [deg]", "angle_spread [deg]",
+                                               "normalised_shear_force [N/m]", "strain_energy [J]",
+                                               "contact_energy [J]", "kinetic_energy [J]"});
+    if (friction_)
+      file_.columns.push_back("friction_dissipation [J]");
+    // The unloaded specimen: the energy method's start.
+    gamma_.push_back(0.0);
+    force_.push_back(0.0);
+  }
+
+  std::vector<double> values(const Simulation& sim) override {
+    const textile::BiasExtensionReading r =
+        textile::read_bias_extension(model_, sim.state().time, sim.state().x_n, sim.reactions());
+    const double gamma = r.ideal_angle * std::numbers::pi / 180;
+    // At gamma = 0 the method's fixed point F / (2 W); a repeated angle has no value of its own.
+    double normalised =
+        gamma == 0 ? r.force / (2 * test_.width) : std::numeric_limits<double>::quiet_NaN();
+    if (gamma > gamma_.back()) {
+      gamma_.push_back(gamma);
+      force_.push_back(r.force);
+      normalised =
+          textile::bias_extension_normalised_force(gamma_, force_, test_.height, test_.width)
+              .back();
+    }
+    std::vector<double> out{
+        r.displacement,      r.force,    r.ideal_angle,       r.measured.mean,
+        r.measured.spread,   normalised, sim.strain_energy(), sim.contact_energy(),
+        sim.kinetic_energy()};
+    if (friction_)
+      out.push_back(sim.contact() ? sim.contact()->summary().dissipation : 0.0);
+    return out;
+  }
+
+  std::vector<std::string> scalar_names() const override {
+    return {"displacement", "force", "ideal_angle", "measured_angle"};
+  }
+
+  /// The ideal angles and forces of the rows kept: the energy method marches over them.
+  void resume(const std::filesystem::path& file, long rows) override {
+    std::ifstream in(file);
+    std::string line;
+    if (!in || !std::getline(in, line))
+      throw std::runtime_error(
+          fmt::format("cannot read {} to resume the bias extension's curves", file.string()));
+    auto split = [](const std::string& text) {
+      std::vector<std::string> cells;
+      std::stringstream stream(text);
+      for (std::string cell; std::getline(stream, cell, ',');)
+        cells.push_back(cell);
+      return cells;
+    };
+    const std::vector<std::string> header = split(line);
+    auto column = [&](std::string_view name) {
+      const auto it = std::find(header.begin(), header.end(), name);
+      if (it == header.end())
+        throw std::runtime_error(fmt::format(
+            "{} has no column '{}' to resume the bias extension's curves", file.string(), name));
+      return static_cast<std::size_t>(it - header.begin());
+    };
+    const std::size_t angle = column("ideal_angle [deg]"), force = column("force [N]");
+    for (long k = 0; k < rows && std::getline(in, line); ++k) {
+      const std::vector<std::string> cells = split(line);
+      if (cells.size() != header.size())
+        throw std::runtime_error(fmt::format("{}: row {} has {} cells, the header {}",
+                                             file.string(), k + 1, cells.size(), header.size()));
+      const double gamma = std::stod(cells[angle]) * std::numbers::pi / 180;
+      if (gamma > gamma_.back()) {
+        gamma_.push_back(gamma);
+        force_.push_back(std::stod(cells[force]));
+      }
+    }
+  }
+
+private:
+  const Model& model_;
+  const BiasExtensionTest& test_;
+  bool friction_;
+  std::vector<double> gamma_, force_; ///< rad and N, the curve so far (from the unloaded start)
 };
 
 /// The curves of the model's test, if it has one.
@@ -291,6 +396,8 @@ std::unique_ptr<TestCurves> test_curves(const Model& model) {
     return std::make_unique<BiaxialCurves>(model);
   if (model.picture_frame)
     return std::make_unique<PictureFrameCurves>(model);
+  if (model.bias_extension)
+    return std::make_unique<BiasExtensionCurves>(model);
   return nullptr;
 }
 
@@ -397,6 +504,14 @@ public:
         start_(Clock::now()), last_print_(start_), contact_points_(contact_points) {
     t_end_ = model.steps.back().end_time;
     curves_ = test_curves(model);
+  }
+
+  /// A restart: the test's curves so far, from the rows of curves.csv the checkpoint kept.
+  void resume_curves(const std::map<std::string, long>& csv_rows) {
+    if (!curves_)
+      return;
+    const auto it = csv_rows.find("curves.csv");
+    curves_->resume(options_.output_dir / "curves.csv", it == csv_rows.end() ? 0 : it->second);
   }
 
   /// The rows of the initial state (time 0, increment 0) in every CSV file the run writes, before
@@ -786,6 +901,8 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
   RunObserver observer(model, options, deck_hash, results, monitors, contact_points, csv, writer);
   if (!restart)
     observer.write_initial_rows(sim);
+  else
+    observer.resume_curves(restart->outputs.csv_rows);
   // Every completed increment on disk before the files are closed; an error of the writer wins
   // over the reason the run stopped, since the files are then incomplete.
   auto drain = [&writer, &observer]() -> std::string {

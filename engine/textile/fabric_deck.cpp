@@ -4,6 +4,7 @@
 #include "engine/model/deck.hpp"
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/shear_tests.hpp"
+#include "engine/textile/specimen.hpp"
 #include "engine/textile/texgen.hpp"
 #include "engine/textile/weave.hpp"
 
@@ -89,6 +90,24 @@ constexpr auto kTexGenFabricKeys = [] {
 }();
 constexpr TableSpec kTexGenFabric{"[fabric]", kTexGenFabricKeys};
 
+/// Keys of [fabric] that the bias extension's specimen decides ([bias_extension] height and
+/// width): errors there.
+constexpr std::string_view kSpecimenDecidedKeys[] = {"n_warp", "n_weft", "length_warp",
+                                                     "length_weft"};
+/// [fabric] with [bias_extension]: the yarn counts and lengths are not required (given, they are
+/// errors).
+constexpr auto kSpecimenFabricKeys = [] {
+  std::array<KeySpec, std::size(kFabricKeys)> out{};
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    out[i] = kFabricKeys[i];
+    for (std::string_view k : kSpecimenDecidedKeys)
+      if (out[i].name == k)
+        out[i].need = kOptional;
+  }
+  return out;
+}();
+constexpr TableSpec kSpecimenFabric{"[fabric]", kSpecimenFabricKeys};
+
 constexpr KeySpec kToleranceKeys[] = {
     {"force", Type::Number, kOptional, kPositive},
     {"increment", Type::Number, kOptional, kPositive},
@@ -154,8 +173,26 @@ constexpr KeySpec kPictureFrameOwnKeys[] = {
 constexpr auto kPictureFrameKeys = with_loading(kPictureFrameOwnKeys);
 constexpr TableSpec kPictureFrame{"[picture_frame]", kPictureFrameKeys};
 
+constexpr KeySpec kUniaxialOwnKeys[] = {
+    {"direction", Type::String},
+    {"max_strain", Type::Number, kOptional, kUnitOpen},
+    {"monitors", Type::Boolean},
+};
+constexpr auto kUniaxialKeys = with_loading(kUniaxialOwnKeys);
+constexpr TableSpec kUniaxial{"[uniaxial]", kUniaxialKeys};
+
+constexpr KeySpec kBiasExtensionOwnKeys[] = {
+    {"height", Type::Number, kRequired, kPositive},
+    {"width", Type::Number, kRequired, kPositive},
+    {"clamp_length", Type::Number, kOptional, kNonNegative},
+    {"max_angle", Type::Number, kOptional, kShearAngle},
+    {"central_region", Type::Number, kOptional, kUnitHalfOpen},
+};
+constexpr auto kBiasExtensionKeys = with_loading(kBiasExtensionOwnKeys);
+constexpr TableSpec kBiasExtension{"[bias_extension]", kBiasExtensionKeys};
+
 /// The test blocks of a fabric deck: exactly one is given.
-constexpr std::string_view kTests[] = {"biaxial", "picture_frame"};
+constexpr std::string_view kTests[] = {"biaxial", "uniaxial", "picture_frame", "bias_extension"};
 
 constexpr KeySpec kContactKeys[] = {
     {"type", Type::String},
@@ -175,27 +212,34 @@ constexpr KeySpec kContactKeys[] = {
 };
 constexpr TableSpec kContact{"[contact]", kContactKeys};
 
-constexpr KeySpec kFabricDeckKeys[] = {
-    {"title", Type::String},
-    {"fabric", Type::Table, kRequired, kAnyValue, &kFabric},
-    {"biaxial", Type::Table, kOptional, kAnyValue, &kBiaxial},
-    {"picture_frame", Type::Table, kOptional, kAnyValue, &kPictureFrame},
-    {"contact", Type::Table, kOptional, kAnyValue, &kContact},
-};
+/// The top level of a fabric deck whose [fabric] follows `fabric`.
+constexpr std::array<KeySpec, 7> fabric_deck_keys(const TableSpec* fabric) {
+  return {{
+      {"title", Type::String},
+      {"fabric", Type::Table, kRequired, kAnyValue, fabric},
+      {"biaxial", Type::Table, kOptional, kAnyValue, &kBiaxial},
+      {"uniaxial", Type::Table, kOptional, kAnyValue, &kUniaxial},
+      {"picture_frame", Type::Table, kOptional, kAnyValue, &kPictureFrame},
+      {"bias_extension", Type::Table, kOptional, kAnyValue, &kBiasExtension},
+      {"contact", Type::Table, kOptional, kAnyValue, &kContact},
+  }};
+}
+constexpr auto kFabricDeckKeys = fabric_deck_keys(&kFabric);
 constexpr TableSpec kFabricDeck{"the top level of a fabric deck", kFabricDeckKeys};
-constexpr KeySpec kTexGenFabricDeckKeys[] = {
-    {"title", Type::String},
-    {"fabric", Type::Table, kRequired, kAnyValue, &kTexGenFabric},
-    {"biaxial", Type::Table, kOptional, kAnyValue, &kBiaxial},
-    {"picture_frame", Type::Table, kOptional, kAnyValue, &kPictureFrame},
-    {"contact", Type::Table, kOptional, kAnyValue, &kContact},
-};
+constexpr auto kTexGenFabricDeckKeys = fabric_deck_keys(&kTexGenFabric);
 constexpr TableSpec kTexGenFabricDeck{"the top level of a fabric deck", kTexGenFabricDeckKeys};
+constexpr auto kSpecimenFabricDeckKeys = fabric_deck_keys(&kSpecimenFabric);
+constexpr TableSpec kSpecimenFabricDeck{"the top level of a fabric deck", kSpecimenFabricDeckKeys};
 
 /// Whether [fabric] takes its yarns from a TexGen file (has a `texgen` key, of whatever type).
 bool uses_texgen(const toml::table& table) {
   const toml::table* fabric = table["fabric"].as_table();
   return fabric != nullptr && fabric->contains("texgen");
+}
+
+/// Whether the deck runs the bias extension, whose specimen is cut from the weave.
+bool cuts_specimen(const toml::table& table) {
+  return table.contains("bias_extension");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -288,14 +332,20 @@ class FabricDeckBuilder {
 public:
   FabricDeckBuilder(const toml::table& table, Diagnostics& diagnostics,
                     std::filesystem::path folder)
-      : texgen_(uses_texgen(table)),
-        root_(table, texgen_ ? kTexGenFabricDeck : kFabricDeck, "", diagnostics),
+      : texgen_(uses_texgen(table)), specimen_(cuts_specimen(table)),
+        root_(table,
+              texgen_     ? kTexGenFabricDeck
+              : specimen_ ? kSpecimenFabricDeck
+                          : kFabricDeck,
+              "", diagnostics),
         diagnostics_(diagnostics), folder_(std::move(folder)) {}
 
   Model build() {
     const CheckedTable* fabric = root_.table("fabric");
     const CheckedTable* biaxial = root_.table("biaxial");
+    const CheckedTable* uniaxial = root_.table("uniaxial");
     const CheckedTable* frame = root_.table("picture_frame");
+    const CheckedTable* bias = root_.table("bias_extension");
     const CheckedTable* contact = root_.table("contact");
     if (fabric)
       misplaced_keys(*fabric);
@@ -306,32 +356,45 @@ public:
         tests.push_back(t);
     if (tests.empty() && std::none_of(std::begin(kTests), std::end(kTests),
                                       [&](std::string_view t) { return root_.misspelt(t); }))
-      root_.error("expected a test block: [biaxial] or [picture_frame] (docs/input.md, \"Fabric "
-                  "decks\")");
+      root_.error("expected a test block: [biaxial], [uniaxial], [picture_frame] or "
+                  "[bias_extension] (docs/input.md, \"Fabric decks\")");
     for (std::size_t k = 1; k < tests.size(); ++k)
       root_.error(tests[k], fmt::format("a fabric deck runs one test: found [{}] and [{}]",
                                         tests[0], tests[k]));
+    if (bias && texgen_)
+      fabric->error("texgen", "the bias extension's specimen is cut from a weave built from its "
+                              "parameters; a TexGen file cannot give it in this version");
     const ContactFormulation formulation =
         contact ? contact_formulation(*contact) : ContactFormulation::Spline;
     const InterfaceLawParameters law =
         contact ? contact_law(*contact, formulation) : default_law(formulation);
-    std::optional<BiaxialParameters> biaxial_test =
-        biaxial ? biaxial_parameters(*biaxial) : std::nullopt;
+    std::optional<BiaxialParameters> biaxial_test = biaxial    ? biaxial_parameters(*biaxial)
+                                                    : uniaxial ? uniaxial_parameters(*uniaxial)
+                                                               : std::nullopt;
     std::optional<PictureFrameParameters> frame_test =
         frame ? picture_frame_parameters(*frame) : std::nullopt;
-    const LoadingParameters* loading = biaxial_test
-                                           ? static_cast<LoadingParameters*>(&*biaxial_test)
-                                       : frame_test ? &*frame_test
-                                                    : nullptr;
-    const std::string block = biaxial ? "[biaxial]" : frame ? "[picture_frame]" : "the test";
-    const CheckedTable* test_table = biaxial ? biaxial : frame;
+    std::optional<BiasExtensionParameters> bias_test;
+    std::optional<BiasSpecimenParameters> specimen;
+    if (bias)
+      bias_extension_parameters(*bias, bias_test, specimen);
+    const LoadingParameters* loading = nullptr;
+    if (biaxial_test)
+      loading = &*biaxial_test;
+    else if (frame_test)
+      loading = &*frame_test;
+    else if (bias_test)
+      loading = &*bias_test;
+    const CheckedTable* test_table = biaxial ? biaxial : uniaxial ? uniaxial : frame ? frame : bias;
+    const std::string block =
+        test_table ? fmt::format("[{}]", tests.empty() ? "test" : tests.front()) : "the test";
     FrictionParameters friction;
     // Contact between neighbouring yarns of one direction (warp-warp, weft-weft): spline
     // contact only.
     // On by default in the shear tests, where sheared yarns come to lie side by side.
-    const bool same_direction = contact && contact->present("same_direction")
-                                    ? contact->boolean("same_direction").value_or(false)
-                                    : frame != nullptr && formulation == ContactFormulation::Spline;
+    const bool same_direction =
+        contact && contact->present("same_direction")
+            ? contact->boolean("same_direction").value_or(false)
+            : (frame != nullptr || bias != nullptr) && formulation == ContactFormulation::Spline;
     if (same_direction && formulation == ContactFormulation::Surface)
       contact->error("same_direction", "'same_direction' applies only to type = \"spline\" "
                                        "(the surface contact has no contact within a group in "
@@ -384,26 +447,30 @@ public:
     }
     if ((!weave && !built) || !loading || !diagnostics_.empty())
       return {};
-    if (weave) {
-      try {
+    try {
+      if (weave && specimen) {
+        specimen->weave = *weave;
+        built = build_bias_specimen(*specimen);
+      } else if (weave) {
         built = build_weave(*weave);
-      } catch (const std::invalid_argument& e) {
-        fabric->error(e.what());
-        return {};
       }
+    } catch (const std::invalid_argument& e) {
+      (specimen ? *test_table : *fabric).error(e.what());
+      return {};
     }
     try {
       if (biaxial_test)
         add_biaxial_test(*built, *biaxial_test);
-      else
+      else if (frame_test)
         add_picture_frame_test(*built, *frame_test);
+      else
+        add_bias_extension_test(*built, *specimen, *bias_test);
     } catch (const std::invalid_argument& e) {
       // With a TexGen file what the test cannot find (a direction without yarns, ends off the
       // frame) is the file's.
       if (texgen_)
         fabric->error("texgen", fmt::format("the yarns of {} cannot take the {} test: {}",
-                                            texgen_path(*fabric).string(),
-                                            biaxial_test ? "biaxial" : "picture frame", e.what()));
+                                            texgen_path(*fabric).string(), block, e.what()));
       else
         test_table->error(e.what());
       return {};
@@ -453,6 +520,13 @@ private:
 
   /// Weave keys with a TexGen file, TexGen keys without one.
   void misplaced_keys(const CheckedTable& t) const {
+    if (specimen_ && !texgen_)
+      for (std::string_view k : kSpecimenDecidedKeys)
+        if (t.present(k))
+          t.error(k, fmt::format("'{}' does not apply to the bias extension: the specimen's "
+                                 "height and width ([bias_extension]) decide which yarns there "
+                                 "are and how long they are",
+                                 k));
     if (texgen_) {
       for (std::string_view k : kWeaveOnlyKeys)
         if (t.present(k))
@@ -602,7 +676,7 @@ private:
       // Absent optional keys keep their default; a bad or missing required value is reported.
       if (auto v = t.number(key))
         out = *v;
-      else if (t.present(key) || kFabric.find(key)->need == kRequired)
+      else if (t.present(key) || t.spec().find(key)->need == kRequired)
         ok = false;
     };
     number("spacing_warp", p.spacing_warp);
@@ -707,6 +781,62 @@ private:
     if (!ok)
       return std::nullopt;
     return p;
+  }
+
+  std::optional<BiaxialParameters> uniaxial_parameters(const CheckedTable& t) {
+    BiaxialParameters p;
+    bool ok = loading_parameters(t, kUniaxialKeys, "[uniaxial]", p);
+    p.uniaxial = FabricDirection::Warp;
+    if (auto d = t.string("direction")) {
+      static constexpr std::string_view kDirections[] = {"warp", "weft"};
+      if (*d == "warp" || *d == "weft") {
+        p.uniaxial = *d == "warp" ? FabricDirection::Warp : FabricDirection::Weft;
+      } else {
+        t.error("direction", fmt::format("expected \"warp\" or \"weft\" (the direction pulled), "
+                                         "found \"{}\"{}",
+                                         *d, suggestion_text(*d, kDirections)));
+        ok = false;
+      }
+    }
+    p.max_strain = t.number("max_strain").value_or(p.max_strain);
+    p.monitors = t.boolean("monitors").value_or(true);
+    if (!ok)
+      return std::nullopt;
+    return p;
+  }
+
+  /// [bias_extension]: the test and the specimen's size (the weave is [fabric]'s, set later).
+  void bias_extension_parameters(const CheckedTable& t,
+                                 std::optional<BiasExtensionParameters>& test,
+                                 std::optional<BiasSpecimenParameters>& specimen) {
+    BiasExtensionParameters p;
+    bool ok = loading_parameters(t, kBiasExtensionKeys, "[bias_extension]", p);
+    p.max_angle = t.number("max_angle").value_or(p.max_angle);
+    p.central_region = t.number("central_region").value_or(p.central_region);
+    BiasSpecimenParameters s;
+    if (auto h = t.number("height"))
+      s.height = *h;
+    else
+      ok = false;
+    if (auto w = t.number("width"))
+      s.width = *w;
+    else
+      ok = false;
+    s.clamp_length = t.number("clamp_length").value_or(0.0);
+    if (t.valid("height") && t.valid("width") &&
+        (!t.present("clamp_length") || t.valid("clamp_length")) &&
+        !(s.height - 2 * s.clamp_length >= 2 * s.width * (1 - 1e-12))) {
+      t.error(t.present("clamp_length") ? "clamp_length" : "height",
+              fmt::format("expected a free length height - 2 clamp_length >= 2 width = {} m (the "
+                          "three zones of the test and the benchmark's energy method need it), "
+                          "found {} m",
+                          2 * s.width, s.height - 2 * s.clamp_length));
+      ok = false;
+    }
+    if (!ok)
+      return;
+    test = p;
+    specimen = s;
   }
 
   std::optional<PictureFrameParameters> picture_frame_parameters(const CheckedTable& t) {
@@ -847,7 +977,8 @@ private:
     return ok;
   }
 
-  bool texgen_; ///< [fabric] names a TexGen file
+  bool texgen_;   ///< [fabric] names a TexGen file
+  bool specimen_; ///< [bias_extension]: the yarns are cut from the weave to its specimen
   CheckedTable root_;
   Diagnostics& diagnostics_;
   std::filesystem::path folder_; ///< the deck's folder: relative TexGen paths start there

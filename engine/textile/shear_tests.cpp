@@ -293,4 +293,77 @@ PictureFrameReading read_picture_frame(const Model& model, double time, const Ei
   return out;
 }
 
+void add_bias_extension_test(Fabric& fabric, const BiasSpecimenParameters& specimen,
+                             const BiasExtensionParameters& p) {
+  auto fail = [](const std::string& message) {
+    throw std::invalid_argument("bias extension: " + message);
+  };
+  if (!(p.max_angle > 0 && p.max_angle < 90))
+    fail(fmt::format("expected a maximum shear angle in (0, 90) degrees, found {}", p.max_angle));
+  if (!(p.central_region > 0 && p.central_region <= 1))
+    fail(fmt::format("expected a central region in (0, 1] of zone C, found {}", p.central_region));
+  if (specimen.angle != 45)
+    fail(fmt::format("expected the yarns at 45 degrees to the pull, found {} degrees",
+                     specimen.angle));
+  const double H = specimen.height - 2 * specimen.clamp_length;
+  const double W = specimen.width;
+  if (!(H >= 2 * W * (1 - 1e-12)))
+    fail(fmt::format("expected a free length H - 2 clamp_length >= 2 W = {} m (the three zones "
+                     "of the test and the benchmark's energy method need it), found {} m",
+                     2 * W, H));
+  Model& model = fabric.model;
+  const double t0 = model.steps.empty() ? 0.0 : model.steps.back().end_time;
+  const SolutionStep step = loading_step(p, t0, "bias extension");
+
+  BiasExtensionTest test;
+  test.height = H;
+  test.width = W;
+  test.clamp_length = specimen.clamp_length;
+  test.max_angle = p.max_angle * kDegree;
+  test.central_region = p.central_region;
+  test.bottom_clamp = model.find_node_set("clamp.bottom");
+  test.top_clamp = model.find_node_set("clamp.top");
+  if (test.bottom_clamp < 0 || test.top_clamp < 0)
+    fail("the fabric has no node sets 'clamp.bottom' and 'clamp.top' (build_bias_specimen adds "
+         "them)");
+  test.displacement = ramp_table(t0, t0 + p.loading_time,
+                                 bias_extension_displacement(test.max_angle, H, W), p.ramp);
+  for (const auto& [set, moves] : {std::pair{test.bottom_clamp, false}, {test.top_clamp, true}}) {
+    PrescribedMotion clamp;
+    clamp.node_set = set;
+    clamp.displacement = {TimeTable::constant(0.0),
+                          moves ? test.displacement : TimeTable::constant(0.0),
+                          TimeTable::constant(0.0)};
+    clamp.rotation = std::array<TimeTable, 3>{TimeTable::constant(0.0), TimeTable::constant(0.0),
+                                              TimeTable::constant(0.0)};
+    model.prescribed.push_back(std::move(clamp));
+  }
+  const double half_diagonal = p.central_region * (H - W) / 2 * (1 + 1e-12);
+  test.central = find_crossings(fabric, [&](const Eigen::Vector2d& q) {
+    return std::abs(q.x()) + std::abs(q.y()) <= half_diagonal;
+  });
+  if (test.central.empty())
+    fail(fmt::format("no crossing lies in the central region (|x| + |y| <= {} m)", half_diagonal));
+  test.all = find_crossings(fabric, [](const Eigen::Vector2d&) { return true; });
+  const WeaveParameters& w = specimen.weave;
+  const double spacing = std::min(w.spacing_warp, w.spacing_weft);
+  test.locking_angle = 2 * w.a < spacing ? locking_angle(2 * w.a, spacing) : 0.0;
+  model.steps.push_back(step);
+  model.bias_extension = std::move(test);
+}
+
+BiasExtensionReading
+read_bias_extension(const Model& model, double time, const Eigen::Matrix3Xd& x,
+                    const Eigen::Matrix<double, 6, Eigen::Dynamic>& reactions) {
+  const BiasExtensionTest& test = *model.bias_extension;
+  BiasExtensionReading out;
+  out.displacement = test.displacement.at(time);
+  for (const int n : model.node_sets[static_cast<std::size_t>(test.top_clamp)].nodes)
+    out.force += reactions(1, n);
+  out.ideal_angle =
+      bias_extension_angle(std::max(0.0, out.displacement), test.height, test.width) / kDegree;
+  out.measured = measure_shear(test.central, x);
+  return out;
+}
+
 } // namespace yarnsim::textile

@@ -6,6 +6,7 @@
 
 #include "engine/textile/fabric.hpp"
 #include "engine/textile/loading.hpp"
+#include "engine/textile/specimen.hpp"
 
 #include <Eigen/Core>
 #include <functional>
@@ -76,5 +77,41 @@ struct PictureFrameReading {
 /// dphi/dd when clamped), the frame being a rigid mechanism of one degree of freedom.
 PictureFrameReading read_picture_frame(const Model& model, double time, const Eigen::Matrix3Xd& x,
                                        const Eigen::Matrix<double, 6, Eigen::Dynamic>& reactions);
+
+/// The bias extension test: its loading step and how far it goes. The specimen (its H, W and
+/// clamp length) is BiasSpecimenParameters'.
+struct BiasExtensionParameters : LoadingParameters {
+  /// Degrees, in (0, 90): the ideal shear angle of the central zone at the end of the step; the
+  /// top clamp travels d(max_angle) (docs/shear-tests.md), ramped along `ramp`.
+  double max_angle = 40;
+  /// Where the shear angle is measured: the crossings with |x| + |y| <= central_region (H - W) / 2
+  /// (H the free length), in (0, 1]; 1 is the whole of zone C.
+  double central_region = 0.5;
+};
+
+/// Adds the bias extension test to a specimen of build_bias_specimen(specimen) (its node sets
+/// "clamp.bottom" and "clamp.top"): one step of the loading time after the model's last one in
+/// which the bottom clamp holds its nodes (displacements and rotations 0) and the top clamp moves
+/// its nodes by d(t) along y, rotations held, d from 0 to bias_extension_displacement(max_angle,
+/// H - 2 clamp_length, W). Fills Model::bias_extension. Throws std::invalid_argument for bad
+/// parameters, a free length H - 2 clamp_length below 2 W (the benchmark's three zones and its
+/// energy method need H / W >= 2), a specimen not at 45 degrees, or no crossing in the central
+/// region.
+void add_bias_extension_test(Fabric& fabric, const BiasSpecimenParameters& specimen,
+                             const BiasExtensionParameters& parameters);
+
+/// One point of a bias extension's curves (the benchmark's normalised force needs the whole
+/// curve: bias_extension_normalised_force of shear_kinematics.hpp).
+struct BiasExtensionReading {
+  double displacement = 0; ///< d, the top clamp's travel, m
+  double force = 0;        ///< F, the pull: the top clamp's reactions along y, summed, N
+  double ideal_angle = 0;  ///< gamma of the central zone by the ideal kinematics, degrees
+  MeasuredShear measured;  ///< on the yarns of the central region
+};
+
+/// The reading of model.bias_extension (which must be set) at time t (s), positions x
+/// (3 x n_nodes, m) and the reactions at the prescribed DOFs (6 x n_nodes, forces first, N).
+BiasExtensionReading read_bias_extension(const Model& model, double time, const Eigen::Matrix3Xd& x,
+                                         const Eigen::Matrix<double, 6, Eigen::Dynamic>& reactions);
 
 } // namespace yarnsim::textile

@@ -195,6 +195,65 @@ TEST(Biaxial, OneAndTwoThreadsGiveBitwiseIdenticalResults) {
   expect_same_on_one_and_two_threads(kExamples / "biaxial-k1.toml", 0.2);
 }
 
+TEST(Uniaxial, OneAndTwoThreadsGiveBitwiseIdenticalResults) {
+  expect_same_on_one_and_two_threads(kExamples / "uniaxial-warp.toml", 0.4);
+}
+
+TEST(PictureFrame, OneAndTwoThreadsGiveBitwiseIdenticalResults) {
+  // The pretension (0.2 s) closes the crossings; then 10 degrees of shear.
+  expect_same_on_one_and_two_threads(kExamples / "picture-frame.toml", 0.35);
+}
+
+TEST(Uniaxial, PulledCrimpGoesOutFreeCrimpGrowsAndFreeEndsCarryNoForce) {
+  // examples/uniaxial-warp.toml: the warp pulled to 1.5 %, the weft's ends free.
+  const Model m = read_deck(kExamples / "uniaxial-warp.toml");
+  ASSERT_TRUE(m.biaxial && m.biaxial->uniaxial == FabricDirection::Warp);
+  // Only the warp ends are prescribed: 6 yarns, two ends each.
+  EXPECT_EQ(m.prescribed.size(), 12u);
+  struct Recorder : SimulationObserver {
+    const Model& m;
+    std::vector<textile::BiaxialReading> readings;
+    double worst_free_end = 0; ///< N, the largest force resultant next to a weft yarn's end
+    std::vector<int> free_end_elements;
+    explicit Recorder(const Model& model) : m(model) {
+      // The elements at the weft yarns' ends (yarn_nodes: warp yarns first).
+      const std::size_t n_warp = m.biaxial->warp_start.size();
+      for (std::size_t y = n_warp; y < m.biaxial->yarn_nodes.size(); ++y)
+        for (const int end : {m.biaxial->yarn_nodes[y].front(), m.biaxial->yarn_nodes[y].back()})
+          for (std::size_t e = 0; e < m.elements.size(); ++e)
+            if (m.elements[e].nodes.front() == end || m.elements[e].nodes.back() == end)
+              free_end_elements.push_back(static_cast<int>(e));
+    }
+    void on_increment(const Simulation& sim, const IncrementReport&) override {
+      readings.push_back(textile::read_biaxial(m, sim.state().x_n, sim.reactions()));
+      const Eigen::Matrix<double, 6, Eigen::Dynamic> q = sim.section_resultants();
+      for (const int e : free_end_elements)
+        for (const int g : {0, 1})
+          worst_free_end = std::max(worst_free_end, q.col(2 * e + g).head<3>().norm());
+    }
+  };
+  Recorder rec(m);
+  Simulation sim(m);
+  sim.run(&rec);
+  ASSERT_EQ(rec.free_end_elements.size(), 12u);
+  const textile::BiaxialReading& first = rec.readings.front();
+  const textile::BiaxialReading& last = rec.readings.back();
+  std::printf("uniaxial, warp to %.2f %%: crimp warp %.3f %% -> %.3f %%, weft %.3f %% -> %.3f %%; "
+              "weft strain %.3f %%; warp force %.1f N; largest force next to a free end %.2e N\n",
+              100 * last.strain_warp, 100 * first.crimp_warp, 100 * last.crimp_warp,
+              100 * first.crimp_weft, 100 * last.crimp_weft, 100 * last.strain_weft,
+              last.force_warp, rec.worst_free_end);
+  EXPECT_NEAR(last.strain_warp, 0.015, 1e-9);
+  // The pulled direction's crimp goes out, the free direction's grows, and it contracts.
+  EXPECT_LT(last.crimp_warp, 0.25 * first.crimp_warp);
+  EXPECT_GT(last.crimp_weft, 1.5 * first.crimp_weft);
+  EXPECT_LT(last.strain_weft, -0.005);
+  // The free ends: no reaction (no prescribed DOF), and no force in the yarn next to them.
+  EXPECT_EQ(last.force_weft, 0.0);
+  EXPECT_GT(last.force_warp, 1000.0);
+  EXPECT_LT(rec.worst_free_end, 1e-6 * last.force_warp);
+}
+
 TEST(Biaxial, SurfaceContactGivesBitwiseIdenticalResultsOnOneAndTwoThreads) {
   // The surface pairs close from t = 0.045 s on: 0.1 s has dozens of them active.
   expect_same_on_one_and_two_threads(kExamples / "biaxial-surface-k1.toml", 0.1);

@@ -236,7 +236,9 @@ TEST(PictureFrame, DeckErrorsAreReportedAtTheirKeys) {
   {
     const std::string none(kDeck.substr(0, kDeck.find("[picture_frame]")));
     const auto e = errors_of(none, "frame.toml");
-    EXPECT_TRUE(has(e, "expected a test block: [biaxial] or [picture_frame]")) << joined(e);
+    EXPECT_TRUE(has(e, "expected a test block: [biaxial], [uniaxial], [picture_frame] or "
+                       "[bias_extension]"))
+        << joined(e);
   }
   {
     const auto e =

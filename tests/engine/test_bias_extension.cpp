@@ -1,0 +1,153 @@
+// The bias extension test (engine/textile/shear_tests.hpp, docs/shear-tests.md) and its deck: the
+// clamps' kinematics, the central zone where the angle is measured, the pull as the top clamp's
+// reactions, and the deck's checks.
+#include "deck_errors.hpp"
+#include "engine/input/read_deck.hpp"
+#include "engine/textile/shear_kinematics.hpp"
+#include "engine/textile/shear_tests.hpp"
+
+#include <cmath>
+#include <gtest/gtest.h>
+#include <numbers>
+
+namespace yarnsim {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180;
+
+constexpr std::string_view kDeck = R"(title = "bias"
+[fabric]
+pattern = "plain"
+spacing_warp = 4e-3
+spacing_weft = 4e-3
+gap = 0.1e-3
+a = 1e-3
+b = 0.3e-3
+E = 3.7e10
+nu = 0.2
+density = 2540.0
+
+[bias_extension]
+width = 16e-3
+height = 42e-3
+clamp_length = 5e-3
+max_angle = 35
+type = "static"
+)";
+
+TEST(BiasExtension, ClampsHoldTheBottomAndPullTheTopByTheIdealTravel) {
+  const Model m = read_deck_string(kDeck, "bias.toml");
+  ASSERT_TRUE(m.bias_extension);
+  const BiasExtensionTest& b = *m.bias_extension;
+  EXPECT_DOUBLE_EQ(b.height, 32e-3); // the free length: 42 less two clamps of 5
+  EXPECT_DOUBLE_EQ(b.width, 16e-3);
+  EXPECT_NEAR(b.max_angle, 35 * kDeg, 1e-15);
+  const double d_max = textile::bias_extension_displacement(35 * kDeg, 32e-3, 16e-3);
+  EXPECT_NEAR(textile::bias_extension_angle(d_max, 32e-3, 16e-3), 35 * kDeg, 1e-12);
+  ASSERT_EQ(m.steps.size(), 1u);
+  const double T = m.steps[0].end_time;
+  EXPECT_DOUBLE_EQ(b.displacement.at(T), d_max);
+  EXPECT_EQ(b.displacement.at(0), 0.0);
+  // Two motions: the clamps, every DOF of their nodes prescribed.
+  ASSERT_EQ(m.prescribed.size(), 2u);
+  for (const PrescribedMotion& motion : m.prescribed) {
+    const bool top = motion.node_set == b.top_clamp;
+    EXPECT_TRUE(top || motion.node_set == b.bottom_clamp);
+    ASSERT_TRUE(motion.rotation.has_value());
+    for (const double t : {0.0, 0.37 * T, T}) {
+      EXPECT_EQ(motion.displacement[0]->at(t), 0.0);
+      EXPECT_EQ(motion.displacement[1]->at(t), top ? b.displacement.at(t) : 0.0);
+      EXPECT_EQ(motion.displacement[2]->at(t), 0.0);
+      for (int c = 0; c < 3; ++c)
+        EXPECT_EQ((*motion.rotation)[c].at(t), 0.0);
+    }
+    // The clamp regions: |y| >= H/2 + clamp... the specimen's ends, 5 mm deep.
+    for (const int n : m.node_sets[motion.node_set].nodes)
+      EXPECT_GE((top ? 1 : -1) * m.nodes[n].y(), 21e-3 - 5e-3 - 1e-12);
+  }
+  // The central crossings lie in the middle of zone C: |x| + |y| <= (H - W) / 4.
+  ASSERT_FALSE(b.central.empty());
+  for (const CrossingNodes& c : b.central) {
+    const Eigen::Vector3d& p = m.nodes[c.warp[1]];
+    EXPECT_LE(std::abs(p.x()) + std::abs(p.y()), (32e-3 - 16e-3) / 4 * (1 + 1e-9));
+    EXPECT_EQ(p.head<2>(), m.nodes[c.weft[1]].head<2>());
+  }
+  EXPECT_GT(b.all.size(), b.central.size());
+  EXPECT_NEAR(b.locking_angle, std::acos(2e-3 / 4e-3), 1e-15);
+  // Neighbouring yarns of one direction are in contact, as on the frame.
+  EXPECT_EQ(m.spline_contacts.size(), 3u);
+}
+
+TEST(BiasExtension, ThePullIsTheTopClampsReactionAlongTheSpecimen) {
+  const Model m = read_deck_string(kDeck, "bias.toml");
+  const BiasExtensionTest& b = *m.bias_extension;
+  const int n = static_cast<int>(m.nodes.size());
+  Eigen::Matrix<double, 6, Eigen::Dynamic> reactions = Eigen::MatrixXd::Random(6, n);
+  double expected = 0;
+  for (const int node : m.node_sets[b.top_clamp].nodes)
+    expected += reactions(1, node);
+  Eigen::Matrix3Xd x(3, n);
+  for (int i = 0; i < n; ++i)
+    x.col(i) = m.nodes[i];
+  const double T = m.steps[0].end_time;
+  const textile::BiasExtensionReading r = textile::read_bias_extension(m, 0.5 * T, x, reactions);
+  EXPECT_DOUBLE_EQ(r.force, expected);
+  EXPECT_DOUBLE_EQ(r.displacement, b.displacement.at(0.5 * T));
+  EXPECT_NEAR(r.ideal_angle * kDeg, textile::bias_extension_angle(r.displacement, 32e-3, 16e-3),
+              1e-12);
+  // The reference configuration: no shear on the yarns.
+  EXPECT_NEAR(r.measured.mean, 0.0, 1e-9);
+  // A pure shear of the positions by gamma about the centre, yarns at +-45 degrees to y:
+  // stretched along y by tan(45 + gamma/2), shortened across by the inverse. The measured angle
+  // is gamma at every crossing.
+  const double gamma = 20 * kDeg;
+  const double s = std::tan(std::numbers::pi / 4 + gamma / 2);
+  for (int i = 0; i < n; ++i)
+    x.col(i) = Eigen::Vector3d(m.nodes[i].x() / std::sqrt(s), m.nodes[i].y() * std::sqrt(s),
+                               m.nodes[i].z());
+  const textile::BiasExtensionReading sheared = textile::read_bias_extension(m, T, x, reactions);
+  EXPECT_NEAR(sheared.measured.mean, 20.0, 1e-9);
+  EXPECT_NEAR(sheared.measured.spread, 0.0, 1e-6);
+}
+
+TEST(BiasExtension, DeckErrorsAreReportedAtTheirKeys) {
+  using test::errors_of;
+  using test::has;
+  using test::joined;
+  using test::with;
+  {
+    // The specimen decides the yarns: counts and lengths are errors; all errors at once.
+    const auto e = errors_of(with(kDeck, "gap = 0.1e-3",
+                                  "gap = 0.1e-3\nn_warp = 4\nlength_weft = "
+                                  "1e-2"),
+                             "bias.toml");
+    EXPECT_TRUE(has(e, "fabric.n_warp: 'n_warp' does not apply to the bias extension"))
+        << joined(e);
+    EXPECT_TRUE(has(e, "fabric.length_weft: 'length_weft' does not apply")) << joined(e);
+  }
+  {
+    const auto e =
+        errors_of(with(kDeck, "clamp_length = 5e-3", "clamp_length = 6e-3"), "bias.toml");
+    EXPECT_TRUE(has(e, "bias_extension.clamp_length: expected a free length height - 2 "
+                       "clamp_length >= 2 width = 0.032 m"))
+        << joined(e);
+  }
+  {
+    const auto e =
+        errors_of(with(kDeck, "width = 16e-3", "width = 16e-3\nmax_angle2 = 3"), "bias.toml");
+    EXPECT_TRUE(has(e, "max_angle2")) << joined(e);
+    EXPECT_TRUE(has(e, "bias_extension.max_angle")) << joined(e); // the misspelt key is
+                                                                  // offered
+  }
+  {
+    const auto e = errors_of(with(kDeck, "height = 42e-3\n", ""), "bias.toml");
+    EXPECT_TRUE(has(e, "height")) << joined(e);
+  }
+  {
+    const auto e = errors_of(std::string(kDeck) + "[uniaxial]\n", "bias.toml");
+    EXPECT_TRUE(has(e, "a fabric deck runs one test")) << joined(e);
+  }
+}
+
+} // namespace
+} // namespace yarnsim
