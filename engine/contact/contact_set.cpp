@@ -30,6 +30,11 @@ bool ContactStage::update_candidates(const State& state) {
   return changed;
 }
 
+void ContactStage::set_time(double t) {
+  for (const auto& set : sets_)
+    set->set_time(t);
+}
+
 std::string ContactStage::project(const State& state, bool want_tangent,
                                   const ContactRates* rates) {
   std::string veto;

@@ -130,6 +130,9 @@ public:
   /// has no effect.
   virtual std::string project(const State& state, bool want_tangent,
                               const ContactRates* rates = nullptr) = 0;
+  /// The time (s) of the configurations project() will see next: time-dependent settings
+  /// (SplineContactDefinition::compaction) are taken there.
+  virtual void set_time(double /*time*/) {}
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
   /// Node groups of all current candidate pairs, for the sparsity pattern (unused slots repeat a
@@ -153,6 +156,8 @@ public:
   static std::unique_ptr<ContactStage> of(const Model& model);
 
   bool update_candidates(const State& state);
+  /// ContactSet::set_time of every set: call before projecting the configuration of time t.
+  void set_time(double t);
   std::string project(const State& state, bool want_tangent, const ContactRates* rates = nullptr);
   /// Whether some definition damps (normal or tangential damping): its project() then wants
   /// ContactRates on dynamic steps.

@@ -34,6 +34,7 @@ struct SplineContactSet::Definition {
   bool damped = false;          ///< normal damping of the law or tangential damping of friction
   double torsional_radius = 0;  ///< rho, m; 0: from the pair's widths
   double torsional_penalty = 0; ///< k_r, N m/rad; 0: eps_t rho^2
+  TimeTable compaction = TimeTable::constant(0.0); ///< c(t), m: added to r_A + r_B
 
   /// The torsional law of a pair of splines of widths wa, wb (m): FrictionParameters' defaults.
   contact::TorsionalFriction torsion(double wa, double wb) const {
@@ -76,6 +77,15 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
     std::vector<std::pair<int, int>> groups{{0, 1}};
     if (def.self_contact)
       groups.insert(groups.end(), {{0, 0}, {1, 1}});
+    // The compaction brings pairs into contact from farther apart: the search looks that far.
+    d->compaction = def.compaction;
+    for (double c : def.compaction.value) {
+      if (!(std::isfinite(c) && c >= 0))
+        throw std::invalid_argument(fmt::format(
+            "contact '{}': expected a compaction >= 0 m at every time, found {}", def.name, c));
+    }
+    if (!def.compaction.value.empty())
+      margin += *std::max_element(def.compaction.value.begin(), def.compaction.value.end());
     broadphase::CandidateSearchOptions options;
     options.margin = margin;
     options.same_curve_skip = 1;
@@ -195,41 +205,45 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
     friction_.resize(work_.size());
     twist_.resize(work_.size());
   }
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, work_.size(), 16),
-      [&](const tbb::blocked_range<std::size_t>& range) {
-        for (std::size_t w = range.begin(); w != range.end(); ++w) {
-          Work& item = work_[w];
-          const Definition& d = *definitions_[item.definition];
-          Eigen::Matrix3d A, B;
-          control_points(d, item.pair, x, A, B);
-          contact::ProjectionStart start;
-          if (item.warm >= 0)
-            start = {committed_[item.warm].xi_A, committed_[item.warm].xi_B, true};
-          const auto& ca = curves_[d.spline[item.pair.first]];
-          const auto& cb = curves_[d.spline[item.pair.second]];
-          const double ra = d.radius[item.pair.first], rb = d.radius[item.pair.second];
-          const auto& sa = ca.segment(d.segment[item.pair.first]);
-          const auto& sb = cb.segment(d.segment[item.pair.second]);
-          contact::SplineContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
-          const contact::PairRates* pair_rates = nullptr;
-          contact::PairRates local_rates;
-          if (rates != nullptr && d.damped) {
-            pair_velocities(d, item.pair, *rates, local_rates);
-            pair_rates = &local_rates;
-          }
-          if (d.line_contact) {
-            // The first segment of a pair is the line contact's slave.
-            contact::AllAngleOptions all_angle = d.all_angle;
-            all_angle.line_scale = d.line_per_point > 0 ? d.line_per_point : 1.0 / (ra + rb);
-            contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle, item.result,
-                                       options, sensitivity, pair_rates);
-          } else {
-            contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options,
-                                    pair_rates, sensitivity);
-          }
-        }
-      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t w = range.begin(); w != range.end(); ++w) {
+                        Work& item = work_[w];
+                        const Definition& d = *definitions_[item.definition];
+                        Eigen::Matrix3d A, B;
+                        control_points(d, item.pair, x, A, B);
+                        contact::ProjectionStart start;
+                        if (item.warm >= 0)
+                          start = {committed_[item.warm].xi_A, committed_[item.warm].xi_B, true};
+                        const auto& ca = curves_[d.spline[item.pair.first]];
+                        const auto& cb = curves_[d.spline[item.pair.second]];
+                        // The compaction grows both contact radii by half of it.
+                        const double half = d.compaction.at(time_) / 2;
+                        const double ra = d.radius[item.pair.first] + half;
+                        const double rb = d.radius[item.pair.second] + half;
+                        const auto& sa = ca.segment(d.segment[item.pair.first]);
+                        const auto& sb = cb.segment(d.segment[item.pair.second]);
+                        contact::SplineContactSensitivity* sensitivity =
+                            d.friction ? &sensitivity_[w] : nullptr;
+                        const contact::PairRates* pair_rates = nullptr;
+                        contact::PairRates local_rates;
+                        if (rates != nullptr && d.damped) {
+                          pair_velocities(d, item.pair, *rates, local_rates);
+                          pair_rates = &local_rates;
+                        }
+                        if (d.line_contact) {
+                          // The first segment of a pair is the line contact's slave.
+                          contact::AllAngleOptions all_angle = d.all_angle;
+                          all_angle.line_scale =
+                              d.line_per_point > 0 ? d.line_per_point : 1.0 / (ra + rb);
+                          contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle,
+                                                     item.result, options, sensitivity, pair_rates);
+                        } else {
+                          contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result,
+                                                  options, pair_rates, sensitivity);
+                        }
+                      }
+                    });
 
   if (any_friction_) {
     // Friction at the active point contacts, on the histories of the last converged increment

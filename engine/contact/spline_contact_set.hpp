@@ -39,6 +39,7 @@ public:
                       const ContactRates* rates = nullptr) override;
   /// Whether some definition damps.
   bool damped() const { return damped_; }
+  void set_time(double time) override { time_ = time; }
   int candidates_version() const override { return candidates_version_; }
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;
@@ -148,6 +149,7 @@ private:
   std::vector<Snapshot::Warm> committed_;
   std::vector<Snapshot::Warm> next_committed_; ///< commit()'s buffer, kept for its capacity
   int candidates_version_ = 0;
+  double time_ = 0; ///< s, of the configurations projected (the compaction's time)
   ContactSummary summary_;
 };
 

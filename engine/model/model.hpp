@@ -195,6 +195,12 @@ struct SplineContactDefinition {
   /// (Spline::radius). The fabric deck's warp-warp and weft-weft contacts take the section's
   /// in-plane semi-axis a: yarns of one direction touch side by side, across their width.
   double radius = 0;
+  /// Compaction c(t), m, >= 0: the pairs touch when their centre lines are r_A + r_B + c(t)
+  /// apart, as if each section had grown by c / 2 (the contact distance and gap of every pair;
+  /// the splines' radii for everything else). A fabric test ramps it over a step of its own to
+  /// close the crossings a woven gap leaves open and press the yarns on each other as weaving
+  /// does (docs/shear-tests.md, "Compaction"); constant 0 by default.
+  TimeTable compaction = TimeTable::constant(0.0);
   /// All-angle contact (contact/line_contact.hpp): line contact below line_angle, point contact
   /// above point_angle, blended between; false: point contact at every angle (with its
   /// degenerate near-parallel path).
@@ -293,6 +299,8 @@ struct BiasExtensionTest {
   double width = 0;        ///< W, m
   double clamp_length = 0; ///< m, at each end (the specimen is H + 2 clamp_length long)
   TimeTable displacement = TimeTable::constant(0.0); ///< d(t) of the top clamp along y, m
+  double pull_start = 0; ///< s, when d starts to ramp (after the compaction step, if any)
+  double compaction = 0; ///< m, of the crossings (SplineContactDefinition::compaction)
   double max_angle = 0;  ///< rad, the central zone's ideal shear angle at the end of the step
   int bottom_clamp = -1; ///< node set held
   int top_clamp = -1;    ///< node set pulled

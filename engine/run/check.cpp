@@ -83,11 +83,15 @@ std::string check_report(const Model& model) {
         "bias extension: specimen {:g} x {:g} mm (free length {:g} mm, clamps {:g} mm), yarns at "
         "+-45 degrees, {} + {} nodes clamped; the top clamp travels {:g} mm (an ideal central "
         "shear angle of {:g} degrees); the shear angle measured at {} crossings of the central "
-        "{:g} % of zone C; neighbouring parallel yarns touch at {:.2f} degrees (acos(w / p))\n",
+        "{:g} % of zone C; neighbouring parallel yarns touch at {:.2f} degrees (acos(w / p)){}\n",
         1e3 * b.width, 1e3 * (b.height + 2 * b.clamp_length), 1e3 * b.height, 1e3 * b.clamp_length,
         model.node_sets[b.bottom_clamp].nodes.size(), model.node_sets[b.top_clamp].nodes.size(),
         1e3 * b.displacement.value.back(), b.max_angle * deg, b.central.size(),
-        100 * b.central_region, b.locking_angle * deg);
+        100 * b.central_region, b.locking_angle * deg,
+        b.compaction > 0 ? fmt::format("; the crossings compacted by {:g} mm before the pull "
+                                       "(it starts at t = {:g} s)",
+                                       1e3 * b.compaction, b.pull_start)
+                         : std::string());
   }
   out += fmt::format("sections: {}, node sets: {}, splines: {}, surfaces: {}, monitors: {}\n",
                      model.sections.size(), model.node_sets.size(), model.splines.size(),

@@ -634,6 +634,7 @@ void CentralDifference::advance(double h, double t_new) {
   // Contact at the new positions, then the increment is committed: Gauss-point histories with the
   // rotation increments, triads, the work of the loads.
   if (sim_.contact_) {
+    sim_.contact_->set_time(t_new);
     const std::string veto = sim_.contact_->evaluate(st, false);
     if (!veto.empty())
       fail(veto);
@@ -829,6 +830,7 @@ void CentralDifference::start(double dt) {
   st.x = st.x_n;
   st.alpha.setZero();
   if (sim_.contact_) {
+    sim_.contact_->set_time(time_);
     const std::string veto = sim_.contact_->evaluate(st, false);
     if (!veto.empty())
       fail(veto);

@@ -102,6 +102,8 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   explicit_status_ = from.explicit_status;
   if (from.explicit_progress)
     resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);
+  if (contact_)
+    contact_->set_time(state_.time);
   if (spline)
     contact_->spline()->restore(*from.contact);
   if (surface)

@@ -457,6 +457,8 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   state_.x = state_.x_n;
   state_.alpha.setZero();
   apply_prescribed(t_new);
+  if (contact_)
+    contact_->set_time(t_new);
 
   report.residual_history.clear();
   report.energy_history.clear();

@@ -187,6 +187,8 @@ constexpr KeySpec kBiasExtensionOwnKeys[] = {
     {"clamp_length", Type::Number, kOptional, kNonNegative},
     {"max_angle", Type::Number, kOptional, kShearAngle},
     {"central_region", Type::Number, kOptional, kUnitHalfOpen},
+    {"compaction", Type::Number, kOptional, kNonNegative},
+    {"compaction_time", Type::Number, kOptional, kPositive},
 };
 constexpr auto kBiasExtensionKeys = with_loading(kBiasExtensionOwnKeys);
 constexpr TableSpec kBiasExtension{"[bias_extension]", kBiasExtensionKeys};
@@ -508,8 +510,9 @@ private:
       c.group_a.clear();
       c.group_b.clear();
       c.self_contact = true;
-      c.within_spline = false; // a yarn does not touch itself in a fabric
-      c.radius = side_radius;  // side by side: across the width
+      c.within_spline = false;                 // a yarn does not touch itself in a fabric
+      c.radius = side_radius;                  // side by side: across the width
+      c.compaction = TimeTable::constant(0.0); // the crossings' alone
       for (std::size_t s = 0; s < model.splines.size(); ++s)
         if (model.splines[s].name.rfind(direction, 0) == 0)
           c.group_a.push_back(static_cast<int>(s));
@@ -813,6 +816,8 @@ private:
     bool ok = loading_parameters(t, kBiasExtensionKeys, "[bias_extension]", p);
     p.max_angle = t.number("max_angle").value_or(p.max_angle);
     p.central_region = t.number("central_region").value_or(p.central_region);
+    p.compaction = t.number("compaction").value_or(p.compaction);
+    p.compaction_time = t.number("compaction_time").value_or(p.compaction_time);
     BiasSpecimenParameters s;
     if (auto h = t.number("height"))
       s.height = *h;

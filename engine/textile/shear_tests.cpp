@@ -311,11 +311,34 @@ void add_bias_extension_test(Fabric& fabric, const BiasSpecimenParameters& speci
     fail(fmt::format("expected a free length H - 2 clamp_length >= 2 W = {} m (the three zones "
                      "of the test and the benchmark's energy method need it), found {} m",
                      2 * W, H));
+  if (!(p.compaction >= 0) || !std::isfinite(p.compaction))
+    fail(fmt::format("expected a compaction >= 0 m, found {}", p.compaction));
+  if (!(p.compaction_time >= 0) || !std::isfinite(p.compaction_time))
+    fail(fmt::format("expected a compaction time >= 0 s, found {}", p.compaction_time));
   Model& model = fabric.model;
   const double t0 = model.steps.empty() ? 0.0 : model.steps.back().end_time;
-  const SolutionStep step = loading_step(p, t0, "bias extension");
+  // The compaction's step: the test's settings over its own duration, default increments.
+  std::optional<SolutionStep> compaction_step;
+  double t_pull = t0;
+  if (p.compaction > 0) {
+    auto crossing =
+        std::find_if(model.spline_contacts.begin(), model.spline_contacts.end(),
+                     [](const SplineContactDefinition& c) { return c.name == "warp-weft"; });
+    if (crossing == model.spline_contacts.end())
+      fail("a compaction needs the spline contact 'warp-weft' between the crossing yarns (the "
+           "surface contact has no compaction in this version)");
+    LoadingParameters q = p;
+    q.loading_time = p.compaction_time > 0 ? p.compaction_time : p.loading_time / 5;
+    q.dt = q.dt_max = q.dt_min = 0;
+    compaction_step = loading_step(q, t0, "bias extension (compaction)");
+    t_pull = t0 + q.loading_time;
+    crossing->compaction = ramp_table(t0, t_pull, p.compaction, p.ramp);
+  }
+  const SolutionStep step = loading_step(p, t_pull, "bias extension");
 
   BiasExtensionTest test;
+  test.pull_start = t_pull;
+  test.compaction = p.compaction;
   test.height = H;
   test.width = W;
   test.clamp_length = specimen.clamp_length;
@@ -326,7 +349,7 @@ void add_bias_extension_test(Fabric& fabric, const BiasSpecimenParameters& speci
   if (test.bottom_clamp < 0 || test.top_clamp < 0)
     fail("the fabric has no node sets 'clamp.bottom' and 'clamp.top' (build_bias_specimen adds "
          "them)");
-  test.displacement = ramp_table(t0, t0 + p.loading_time,
+  test.displacement = ramp_table(t_pull, t_pull + p.loading_time,
                                  bias_extension_displacement(test.max_angle, H, W), p.ramp);
   for (const auto& [set, moves] : {std::pair{test.bottom_clamp, false}, {test.top_clamp, true}}) {
     PrescribedMotion clamp;
@@ -348,6 +371,8 @@ void add_bias_extension_test(Fabric& fabric, const BiasSpecimenParameters& speci
   const WeaveParameters& w = specimen.weave;
   const double spacing = std::min(w.spacing_warp, w.spacing_weft);
   test.locking_angle = 2 * w.a < spacing ? locking_angle(2 * w.a, spacing) : 0.0;
+  if (compaction_step)
+    model.steps.push_back(*compaction_step);
   model.steps.push_back(step);
   model.bias_extension = std::move(test);
 }

@@ -87,16 +87,24 @@ struct BiasExtensionParameters : LoadingParameters {
   /// Where the shear angle is measured: the crossings with |x| + |y| <= central_region (H - W) / 2
   /// (H the free length), in (0, 1]; 1 is the whole of zone C.
   double central_region = 0.5;
+  /// m, >= 0: the compaction of the crossings (SplineContactDefinition::compaction of the
+  /// "warp-weft" contact), ramped from 0 in a step of its own (compaction_time, along `ramp`, the
+  /// clamps held) before the pull and held after it. Most yarns of the specimen end free on its
+  /// sides: only their crossings hold them, and a woven gap leaves those open (the fabric would
+  /// come apart). 0: no such step.
+  double compaction = 0;
+  double compaction_time = 0; ///< s; 0: loading_time / 5
 };
 
 /// Adds the bias extension test to a specimen of build_bias_specimen(specimen) (its node sets
-/// "clamp.bottom" and "clamp.top"): one step of the loading time after the model's last one in
-/// which the bottom clamp holds its nodes (displacements and rotations 0) and the top clamp moves
-/// its nodes by d(t) along y, rotations held, d from 0 to bias_extension_displacement(max_angle,
-/// H - 2 clamp_length, W). Fills Model::bias_extension. Throws std::invalid_argument for bad
-/// parameters, a free length H - 2 clamp_length below 2 W (the benchmark's three zones and its
-/// energy method need H / W >= 2), a specimen not at 45 degrees, or no crossing in the central
-/// region.
+/// "clamp.bottom" and "clamp.top"): with a compaction, a first step in which the "warp-weft"
+/// contact's compaction ramps to its value (spline contact only), then one step of the loading
+/// time in which the bottom clamp holds its nodes (displacements and rotations 0) and the top clamp
+/// moves its nodes by d(t) along y, rotations held, d from 0 to
+/// bias_extension_displacement(max_angle, H - 2 clamp_length, W). Fills Model::bias_extension.
+/// Throws std::invalid_argument for bad parameters, a free length H - 2 clamp_length below 2 W (the
+/// benchmark's three zones and its energy method need H / W >= 2), a specimen not at 45 degrees, no
+/// crossing in the central region, or a compaction without a spline contact "warp-weft".
 void add_bias_extension_test(Fabric& fabric, const BiasSpecimenParameters& specimen,
                              const BiasExtensionParameters& parameters);
 
