@@ -389,6 +389,9 @@ public:
     const CheckedTable* test_table = biaxial ? biaxial : uniaxial ? uniaxial : frame ? frame : bias;
     const std::string block =
         test_table ? fmt::format("[{}]", tests.empty() ? "test" : tests.front()) : "the test";
+    // The test in words ("picture frame"), for messages about the yarns a file gives.
+    std::string test_words(tests.empty() ? "fabric" : tests.front());
+    std::replace(test_words.begin(), test_words.end(), '_', ' ');
     FrictionParameters friction;
     // Contact between neighbouring yarns of one direction (warp-warp, weft-weft): spline
     // contact only.
@@ -472,7 +475,7 @@ public:
       // frame) is the file's.
       if (texgen_)
         fabric->error("texgen", fmt::format("the yarns of {} cannot take the {} test: {}",
-                                            texgen_path(*fabric).string(), block, e.what()));
+                                            texgen_path(*fabric).string(), test_words, e.what()));
       else
         test_table->error(e.what());
       return {};

@@ -2,8 +2,8 @@
 # A run stopped half-way and continued with --restart gives the same results as a run straight
 # through: every dataset and attribute under /steps and /mesh of results.h5 (h5diff, exact) and
 # every CSV byte for byte. Cases: an implicit contact case (crossing beams, static), a short
-# biaxial fabric (dynamic Newmark, contact, curves.csv) with spline and with surface contact, the
-# explicit flying beam (stopped by --stop-after and by SIGINT). Restarts go into a new folder and into the stopped run's own
+# biaxial fabric (dynamic Newmark, contact, curves.csv) with spline and with surface contact, a
+# bias extension (its curves.csv marches over the rows so far), the explicit flying beam (stopped by --stop-after and by SIGINT). Restarts go into a new folder and into the stopped run's own
 # folder. A restart refuses another deck and a folder without a checkpoint (exit 2).
 # Usage: restart.sh YARNSIM REPO WORKDIR
 set -u
@@ -110,7 +110,37 @@ else
   same_results "explicit, SIGINT after $part steps" straight-long restarted-long
 fi
 
-# 6. Refusals: another deck, a folder without a checkpoint.
+# 6. A bias extension (a 16 x 42 mm specimen pulled to an ideal 5 degrees, 36 dynamic
+# increments; frictionless and without compaction it comes apart further on): its curves.csv
+# carries the benchmark's energy-method force, marched over the rows so far, which the restart
+# reads back from the rows the checkpoint kept.
+cat > bias.toml << 'EOF_BIAS'
+title = "bias"
+[fabric]
+pattern = "plain"
+spacing_warp = 4e-3
+spacing_weft = 4e-3
+gap = 0.1e-3
+a = 1e-3
+b = 0.3e-3
+E = 3.7e10
+nu = 0.2
+density = 2540.0
+elements_per_spacing = 2
+[bias_extension]
+width = 16e-3
+height = 42e-3
+clamp_length = 5e-3
+max_angle = 5
+loading_time = 0.3
+dt = 0.01
+dt_max = 0.01
+EOF_BIAS
+restart_case bias bias.toml 12
+awk -F, 'NR > 2 && $7 != "nan" && $7 != 0 { found = 1 } END { exit !found }' straight-bias/curves.csv ||
+  { echo "FAIL bias: no energy-method force in curves.csv"; fail=1; }
+
+# 7. Refusals: another deck, a folder without a checkpoint.
 sed -e 's/^penalty = .*/penalty = 2e5/' crossing.toml > other.toml
 expect other-deck 2 run other.toml --restart part-crossing -o other -q
 grep -q "another deck" other-deck.log || { echo "FAIL other-deck: message lacks 'another deck'"; cat other-deck.log; fail=1; }
