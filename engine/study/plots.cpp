@@ -283,8 +283,12 @@ void coloured_specimens(const std::vector<SpecimenView>& views, const std::strin
   }
   const Eigen::Vector2d pad = 0.04 * box.sizes().cwiseMax(1e-6);
   const Eigen::Vector2d low = box.min() - pad, high = box.max() + pad;
-  // The grid: two columns (one for a single view), the colour bar in a strip on the right.
-  const std::size_t columns = views.size() == 1 ? 1 : 2;
+  // The grid: two columns (one for a single view; a row of up to four for a specimen more than
+  // half as tall again as it is wide, a bias extension's), the colour bar in a strip on the right.
+  const bool tall = box.sizes().y() > 1.5 * box.sizes().x();
+  const std::size_t columns = views.size() == 1 ? 1
+                              : tall            ? std::min<std::size_t>(views.size(), 4)
+                                                : 2;
   const std::size_t rows = (views.size() + columns - 1) / columns;
   const double strip = 0.12, top = 0.06;
   const double width = (1 - strip) / static_cast<double>(columns);
@@ -292,8 +296,15 @@ void coloured_specimens(const std::vector<SpecimenView>& views, const std::strin
   const std::filesystem::path script = base.string() + ".gp";
   {
     std::ofstream gp(script);
-    gp << "set terminal pngcairo size " << (columns == 1 ? 900 : 1400) << ','
-       << (rows == 1 ? 820 : 620 * rows + 60) << " noenhanced font 'Sans,12'\n"
+    gp << "set terminal pngcairo size "
+       << (columns == 1   ? 900
+           : columns == 2 ? 1400
+                          : 1800)
+       << ','
+       << (columns > 2 ? 1000
+           : rows == 1 ? 820
+                       : 620 * rows + 60)
+       << " noenhanced font 'Sans,12'\n"
        << "set output " << quoted(png.string()) << "\n"
        << "set multiplot title " << quoted(title) << "\n"
        << "set xlabel 'x [mm]'\nset ylabel 'y [mm]'\nset key off\nset grid\n"

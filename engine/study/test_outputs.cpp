@@ -382,11 +382,14 @@ TestOutputs write_test_outputs(StudyTest test, const std::vector<const TestRun*>
       continue;
     }
     std::vector<plots::SpecimenView> views;
+    // Angles within rounding of 0 (the ideal angle's -1e-14 at rest) shown as 0.00, not -0.00.
+    auto shown = [](double degrees) { return std::abs(degrees) < 5e-3 ? 0.0 : degrees; };
     for (const ShearStage& s : stages)
       views.push_back(
-          {fmt::format("{:g} % of the output steps: increment {}, t = {:.4g} s\\n{} {:.2f} deg, "
+          {fmt::format("{:g} % of the output steps\\nincrement {}, t = {:.4g} s\\n{} {:.2f} deg, "
                        "measured {:.2f} deg",
-                       100 * s.fraction, s.increment, s.time, angle, s.test_angle, s.measured),
+                       100 * s.fraction, s.increment, s.time, angle, shown(s.test_angle),
+                       shown(s.measured)),
            centre_lines(run->model, s.positions), s.crossings, s.shear});
     const std::filesystem::path png = dir / fmt::format("deformed-{}.png", run_name(*run));
     plots::coloured_specimens(views, "local shear angle [deg]",
