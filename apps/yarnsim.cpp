@@ -91,8 +91,10 @@ int main(int argc, char** argv) {
 
   std::string study_deck;
   CLI::App* study = app.add_subcommand(
-      "study", "Run every case of a study deck, then plot the force-strain curves and the "
-               "contact forces (docs/input.md, \"Study decks\")");
+      "study", "Run every case of a study deck, then plot the curves of each test (biaxial "
+               "force-strain; uniaxial; picture frame and bias extension: force, shear force, "
+               "angles and the deformed specimen) and the contact forces (docs/input.md, \"Study "
+               "decks\")");
   study->add_option("study", study_deck, "Study deck (.toml)")->required();
   study->add_option("--output,-o", output,
                     "Output folder (default: results/<study name> in the current folder)");
@@ -145,7 +147,11 @@ int main(int argc, char** argv) {
       const yarnsim::StudyOutcome outcome = yarnsim::run_study(s, options);
       for (const auto& plot : outcome.plots)
         fmt::print(stderr, "plot: {}\n", plot.string());
-      fmt::print(stderr, "curves of all cases: {}\n", (dir / "curves.csv").string());
+      if (outcome.curves.size() == 1)
+        fmt::print(stderr, "curves of all cases: {}\n", outcome.curves.front().string());
+      else
+        for (const auto& curves : outcome.curves)
+          fmt::print(stderr, "curves: {}\n", curves.string());
       if (!outcome.failures.empty()) {
         for (const auto& f : outcome.failures)
           fmt::print(stderr, "error: case {}\n", f);

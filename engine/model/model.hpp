@@ -288,6 +288,7 @@ struct PictureFrameTest {
   std::vector<bool> end_on_x_arm; ///< per end: on an arm along x (a weft end)
   std::vector<CrossingNodes> central; ///< crossings of the central region
   double central_region = 0.5;        ///< side of that region over L
+  std::vector<CrossingNodes> all;     ///< every crossing: the local shear angle of the pictures
   double locking_angle = 0;           ///< rad, acos(w / p): neighbouring parallel yarns touch
 };
 

@@ -5,6 +5,7 @@
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/study/plots.hpp"
+#include "engine/study/test_outputs.hpp"
 #include "engine/textile/fabric_deck.hpp"
 
 #include <algorithm>
@@ -74,29 +75,60 @@ const char* path_name(StudyPath p) {
   return p == StudyPath::Explicit ? "explicit" : p == StudyPath::Implicit ? "implicit" : "deck";
 }
 
-/// The case's deck, for a fabric deck with [biaxial] type set for `path` (as the deck says for
-/// Deck). A fabric deck is parsed here rather than by read_deck so the type can be changed before
-/// the model is built; its problems are reported as read_deck does. Throws InputError.
+/// The test blocks of a fabric deck, in StudyTest's order.
+constexpr StudyTest kTests[] = {StudyTest::Biaxial, StudyTest::Uniaxial, StudyTest::PictureFrame,
+                                StudyTest::BiasExtension};
+
+/// The test blocks a deck's top level holds (a fabric deck holds exactly one).
+std::vector<StudyTest> test_blocks(const toml::table& table) {
+  std::vector<StudyTest> out;
+  for (StudyTest t : kTests)
+    if (table.contains(test_name(t)))
+      out.push_back(t);
+  return out;
+}
+
+/// The test a model runs, as its deck's test block gave it. Throws InputError naming the case
+/// when the model has none (a model deck).
+StudyTest test_of(const Model& model, const StudyCase& c) {
+  if (model.biaxial)
+    return model.biaxial->uniaxial ? StudyTest::Uniaxial : StudyTest::Biaxial;
+  if (model.picture_frame)
+    return StudyTest::PictureFrame;
+  if (model.bias_extension)
+    return StudyTest::BiasExtension;
+  throw InputError({fmt::format("{}: case '{}': expected a fabric deck with a test block "
+                                "([biaxial], [uniaxial], [picture_frame] or [bias_extension]), "
+                                "found a model without a fabric test",
+                                c.deck.string(), c.name)});
+}
+
+/// The case's deck, for a fabric deck with its test block's type set for `path` (as the deck
+/// says for Deck). A fabric deck is parsed here rather than by read_deck so the type can be
+/// changed before the model is built; its problems are reported as read_deck does. Throws
+/// InputError.
 Model read_case_deck(const std::filesystem::path& file, StudyPath path) {
   if (path == StudyPath::Deck)
     return read_deck(file);
   toml::table table = parse_deck_file(file);
   deck::Diagnostics diagnostics(file.string());
-  toml::table* biaxial = table["biaxial"].as_table();
-  if (!table.contains("fabric") || biaxial == nullptr)
+  const std::vector<StudyTest> tests = test_blocks(table);
+  toml::table* block = tests.empty() ? nullptr : table[test_name(tests.front())].as_table();
+  if (!table.contains("fabric") || block == nullptr)
     throw InputError({fmt::format("{}: a case with 'paths' needs a fabric deck with [fabric] and "
-                                  "[biaxial] blocks, found {}",
+                                  "a test block ([biaxial], [uniaxial], [picture_frame] or "
+                                  "[bias_extension]), found {}",
                                   file.string(),
-                                  table.contains("fabric") ? "no [biaxial]"
-                                  : biaxial                ? "no [fabric]"
+                                  table.contains("fabric") ? "no test block"
+                                  : block                  ? "no [fabric]"
                                                            : "neither")});
-  const toml::node* type = biaxial->get("type");
+  const toml::node* type = block->get("type");
   const std::string given =
       type && type->as_string() ? type->as_string()->get() : std::string("dynamic");
   if (path == StudyPath::Explicit)
-    biaxial->insert_or_assign("type", "explicit");
+    block->insert_or_assign("type", "explicit");
   else if (given != "static" && given != "dynamic")
-    biaxial->insert_or_assign("type", "dynamic");
+    block->insert_or_assign("type", "dynamic");
   std::optional<Model> model = textile::read_fabric_deck(table, diagnostics, file.parent_path());
   if (!diagnostics.empty() || !model)
     throw InputError(diagnostics.messages());
@@ -120,6 +152,20 @@ double interpolate(const std::vector<double>& x, const std::vector<double>& y, d
 
 } // namespace
 
+const char* test_name(StudyTest test) {
+  switch (test) {
+  case StudyTest::Biaxial:
+    return "biaxial";
+  case StudyTest::Uniaxial:
+    return "uniaxial";
+  case StudyTest::PictureFrame:
+    return "picture_frame";
+  case StudyTest::BiasExtension:
+    return "bias_extension";
+  }
+  return "unknown";
+}
+
 Study read_study(const std::filesystem::path& file) {
   const std::string source = file.string();
   deck::Diagnostics diagnostics(source);
@@ -132,7 +178,7 @@ Study read_study(const std::filesystem::path& file) {
   }
   const CheckedTable root(table, kStudySpec, "", diagnostics);
   Study study;
-  study.title = root.string("title").value_or("Biaxial tension study");
+  const std::optional<std::string> title = root.string("title");
   study.contact_maps = root.words("contact_maps").value_or(std::vector<std::string>{});
   const std::filesystem::path dir = file.parent_path();
   for (const CheckedTable& c : root.tables("cases")) {
@@ -159,6 +205,26 @@ Study read_study(const std::filesystem::path& file) {
     }
     if (!deck_path.empty() && !std::filesystem::exists(sc.deck))
       c.error("deck", fmt::format("no such deck: {}", sc.deck.string()));
+    else if (!deck_path.empty()) {
+      // The deck's test decides the case's outputs; the deck is read whole when the case runs.
+      try {
+        const std::vector<StudyTest> tests = test_blocks(parse_deck_file(sc.deck));
+        if (tests.size() == 1)
+          sc.test = tests.front();
+        else if (tests.empty())
+          c.error("deck", fmt::format("expected a fabric deck with a test block ([biaxial], "
+                                      "[uniaxial], [picture_frame] or [bias_extension]), found "
+                                      "none in {}",
+                                      sc.deck.string()));
+        else
+          c.error("deck", fmt::format("expected a fabric deck with one test block, found [{}] "
+                                      "and [{}] in {}",
+                                      test_name(tests[0]), test_name(tests[1]), sc.deck.string()));
+      } catch (const InputError& e) {
+        for (const std::string& m : e.messages())
+          c.error("deck", fmt::format("cannot read the case's deck: {}", m));
+      }
+    }
     for (const StudyCase& other : study.cases)
       if (!sc.name.empty() && other.name == sc.name)
         c.error("name", fmt::format("a case named '{}' exists already", sc.name));
@@ -173,73 +239,33 @@ Study read_study(const std::filesystem::path& file) {
   }
   if (!diagnostics.empty())
     throw InputError(diagnostics.messages());
+  // The default title names the test when every case runs the paper's biaxial test.
+  const bool biaxial_only = std::all_of(study.cases.begin(), study.cases.end(),
+                                        [](const auto& c) { return c.test == StudyTest::Biaxial; });
+  study.title = title.value_or(biaxial_only ? "Biaxial tension study" : "Fabric study");
   return study;
 }
 
-StudyOutcome run_study(const Study& study, const StudyOptions& options) {
-  StudyOutcome outcome;
-  // One completed run of a case on one path.
-  struct Done {
-    const StudyCase* c;
-    std::string path;   ///< "implicit" or "explicit": the step the run took
-    std::string folder; ///< under output_dir
-    std::string label;  ///< legend
-    double k;
-    RunSummary summary;
-    Model model;
-    ExplicitStatus scaling; ///< explicit runs: stable step and mass scaling at the start
-    /// A run that stopped early (no convergence) and left a curve: plotted as far as it got,
-    /// left out of the summary and the contact maps. Empty for a completed run.
-    std::string stopped;
-  };
-  std::vector<Done> done;
-  for (const StudyCase& c : study.cases) {
-    const bool by_path = c.paths.size() > 1 || c.paths.front() != StudyPath::Deck;
-    for (StudyPath path : c.paths) {
-      Model model = read_case_deck(c.deck, path);
-      if (!model.biaxial)
-        throw InputError({fmt::format("{}: case '{}' is not a biaxial test (no [biaxial] block)",
-                                      c.deck.string(), c.name)});
-      const bool is_explicit = model.steps.back().type == StepType::Explicit;
-      const std::string taken = is_explicit ? "explicit" : "implicit";
-      const std::string folder = by_path ? fmt::format("{}/{}", c.name, path_name(path)) : c.name;
-      RunOptions run;
-      run.output_dir = options.output_dir / folder;
-      run.deck_text = read_text(c.deck);
-      if (path != StudyPath::Deck)
-        run.deck_text = fmt::format("# run by a study on the {} path: [biaxial] type = \"{}\"\n{}",
-                                    taken, type_name(model.steps.back().type), run.deck_text);
-      run.deck_path = c.deck.string();
-      run.threads = options.threads;
-      run.linear_solver = options.linear_solver;
-      run.progress = options.progress;
-      run.stop_requested = options.stop_requested;
-      fmt::print(stderr, "case {} ({}){}, deck {}\n", c.name, c.label,
-                 by_path ? fmt::format(" on the {} path", taken) : std::string(), c.deck.string());
-      try {
-        ExplicitStatus scaling;
-        if (is_explicit)
-          scaling = Simulation(model).explicit_stability(model.steps.back());
-        RunSummary s = run_model(model, run);
-        const double k = model.biaxial->strain_ratio;
-        const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
-        done.push_back({&c, taken, folder, label, k, std::move(s), std::move(model), scaling, {}});
-        ++outcome.completed;
-      } catch (const Interrupted&) {
-        throw;
-      } catch (const std::exception& e) {
-        const std::string what = by_path ? fmt::format("{} ({})", c.name, taken) : c.name;
-        outcome.failures.push_back(fmt::format("{}: {}", what, e.what()));
-        fmt::print(stderr, "case {} stopped: {}\n", what, e.what());
-        if (std::filesystem::exists(run.output_dir / "curves.csv")) {
-          const double k = model.biaxial->strain_ratio;
-          const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
-          done.push_back({&c, taken, folder, label, k, RunSummary{}, std::move(model), {}, what});
-        }
-      }
-    }
-  }
+namespace {
 
+/// One completed run of a biaxial case on one path.
+struct Done {
+  const StudyCase* c;
+  std::string path;   ///< "implicit" or "explicit": the step the run took
+  std::string folder; ///< under output_dir
+  std::string label;  ///< legend
+  double k;
+  RunSummary summary;
+  Model model;
+  ExplicitStatus scaling; ///< explicit runs: stable step and mass scaling at the start
+  /// A run that stopped early (no convergence) and left a curve: plotted as far as it got,
+  /// left out of the summary and the contact maps. Empty for a completed run.
+  std::string stopped;
+};
+
+/// The biaxial runs' files: curves.csv, summary.csv and force-strain-k<k>.png per strain ratio.
+void write_biaxial_outputs(const Study& study, const StudyOptions& options,
+                           const std::vector<Done>& done, StudyOutcome& outcome) {
   // All curves in one file, long format; the curves of each run for the plots and the summary.
   std::ofstream all(options.output_dir / "curves.csv");
   all << "case,label,path,k,time [s],strain_warp [-],strain_weft [-],force_warp [N],force_weft "
@@ -364,38 +390,147 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
                         fmt::format("{}: biaxial tension, k = {}", study.title, format_k(k)), png);
     outcome.plots.push_back(png);
   }
-  for (const std::string& name : study.contact_maps)
-    for (const Done& d : done) {
-      if (d.c->name != name || !d.stopped.empty())
-        continue;
-      std::vector<Eigen::Matrix3Xd> yarns;
-      for (const Spline& s : d.model.splines) {
-        Eigen::Matrix3Xd y(3, s.nodes.size());
-        for (std::size_t i = 0; i < s.nodes.size(); ++i)
-          y.col(i) = d.summary.final_positions.col(s.nodes[i]);
-        yarns.push_back(y);
+}
+
+} // namespace
+
+StudyOutcome run_study(const Study& study, const StudyOptions& options) {
+  StudyOutcome outcome;
+  std::vector<Done> done;      // biaxial runs
+  std::vector<TestRun> others; // runs of the uniaxial and shear tests
+  for (const StudyCase& c : study.cases) {
+    const bool by_path = c.paths.size() > 1 || c.paths.front() != StudyPath::Deck;
+    for (StudyPath path : c.paths) {
+      Model model = read_case_deck(c.deck, path);
+      const StudyTest test = test_of(model, c);
+      const bool is_explicit = model.steps.back().type == StepType::Explicit;
+      const std::string taken = is_explicit ? "explicit" : "implicit";
+      const std::string folder = by_path ? fmt::format("{}/{}", c.name, path_name(path)) : c.name;
+      RunOptions run;
+      run.output_dir = options.output_dir / folder;
+      run.deck_text = read_text(c.deck);
+      if (path != StudyPath::Deck)
+        run.deck_text =
+            fmt::format("# run by a study on the {} path: [{}] type = \"{}\"\n{}", taken,
+                        test_name(test), type_name(model.steps.back().type), run.deck_text);
+      run.deck_path = c.deck.string();
+      run.threads = options.threads;
+      run.linear_solver = options.linear_solver;
+      run.progress = options.progress;
+      run.stop_requested = options.stop_requested;
+      fmt::print(stderr, "case {} ({}){}, deck {}\n", c.name, c.label,
+                 by_path ? fmt::format(" on the {} path", taken) : std::string(), c.deck.string());
+      try {
+        ExplicitStatus scaling;
+        if (is_explicit)
+          scaling = Simulation(model).explicit_stability(model.steps.back());
+        RunSummary s = run_model(model, run);
+        const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
+        if (test == StudyTest::Biaxial) {
+          const double k = model.biaxial->strain_ratio;
+          done.push_back(
+              {&c, taken, folder, label, k, std::move(s), std::move(model), scaling, {}});
+        } else {
+          others.push_back(
+              {c.name, c.label, taken, folder, label, test, std::move(model), std::move(s), {}});
+        }
+        ++outcome.completed;
+      } catch (const Interrupted&) {
+        throw;
+      } catch (const std::exception& e) {
+        const std::string what = by_path ? fmt::format("{} ({})", c.name, taken) : c.name;
+        outcome.failures.push_back(fmt::format("{}: {}", what, e.what()));
+        fmt::print(stderr, "case {} stopped: {}\n", what, e.what());
+        if (std::filesystem::exists(run.output_dir / "curves.csv")) {
+          const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
+          if (test == StudyTest::Biaxial) {
+            const double k = model.biaxial->strain_ratio;
+            done.push_back({&c, taken, folder, label, k, RunSummary{}, std::move(model), {}, what});
+          } else {
+            others.push_back({c.name, c.label, taken, folder, label, test, std::move(model),
+                              RunSummary{}, what});
+          }
+        }
       }
-      const auto& pts = d.summary.final_contacts;
-      Eigen::Matrix3Xd xyz(3, pts.size());
-      Eigen::VectorXd f(pts.size());
-      double total = 0;
-      for (std::size_t i = 0; i < pts.size(); ++i) {
-        xyz.col(i) = pts[i].position;
-        f(i) = pts[i].force;
-        total += f(i);
-      }
-      const bool by_path = d.folder != name;
-      const auto png =
-          options.output_dir / (by_path ? fmt::format("contact-forces-{}-{}.png", name, d.path)
-                                        : fmt::format("contact-forces-{}.png", name));
-      plots::contact_map(yarns, xyz, f,
-                         // Two lines ("\\n": gnuplot's escape in a double-quoted string).
-                         fmt::format("{}: normal contact forces at the end\\n({} points, largest "
-                                     "{:.2f} N, total {:.1f} N)",
-                                     d.label, pts.size(), f.size() ? f.maxCoeff() : 0.0, total),
-                         png);
-      outcome.plots.push_back(png);
     }
+  }
+
+  // The biaxial runs' files, unless no case is biaxial (a study of other tests only), then per
+  // other test among the cases its own (test_outputs.hpp).
+  const bool biaxial = std::any_of(study.cases.begin(), study.cases.end(),
+                                   [](const auto& c) { return c.test == StudyTest::Biaxial; });
+  if (biaxial || study.cases.empty()) {
+    write_biaxial_outputs(study, options, done, outcome);
+    outcome.curves.push_back(options.output_dir / "curves.csv");
+  }
+  std::vector<StudyTest> tests; // the other tests, in the order of their first case
+  auto add = [&tests](StudyTest t) {
+    if (t != StudyTest::Biaxial && std::find(tests.begin(), tests.end(), t) == tests.end())
+      tests.push_back(t);
+  };
+  for (const StudyCase& c : study.cases)
+    add(c.test);
+  for (const TestRun& r : others) // the same unless a deck changed while the study ran
+    add(r.test);
+  for (const StudyTest test : tests) {
+    std::vector<const TestRun*> runs;
+    for (const TestRun& r : others)
+      if (r.test == test)
+        runs.push_back(&r);
+    const TestOutputs files = write_test_outputs(test, runs, study.title, options.output_dir);
+    outcome.curves.push_back(files.curves);
+    outcome.plots.insert(outcome.plots.end(), files.plots.begin(), files.plots.end());
+  }
+
+  // The contact maps: a completed run's final normal contact forces over the fabric, whatever
+  // its test.
+  struct MapRun {
+    const std::string& name; ///< of the case
+    const std::string& path;
+    const std::string& folder;
+    const std::string& label;
+    const Model& model;
+    const RunSummary& summary;
+  };
+  std::vector<MapRun> map_runs;
+  for (const std::string& name : study.contact_maps) {
+    for (const Done& d : done)
+      if (d.c->name == name && d.stopped.empty())
+        map_runs.push_back({name, d.path, d.folder, d.label, d.model, d.summary});
+    for (const TestRun& r : others)
+      if (r.case_name == name && r.stopped.empty())
+        map_runs.push_back({name, r.path, r.folder, r.label, r.model, r.summary});
+  }
+  for (const MapRun& d : map_runs) {
+    const std::string& name = d.name;
+    std::vector<Eigen::Matrix3Xd> yarns;
+    for (const Spline& s : d.model.splines) {
+      Eigen::Matrix3Xd y(3, s.nodes.size());
+      for (std::size_t i = 0; i < s.nodes.size(); ++i)
+        y.col(i) = d.summary.final_positions.col(s.nodes[i]);
+      yarns.push_back(y);
+    }
+    const auto& pts = d.summary.final_contacts;
+    Eigen::Matrix3Xd xyz(3, pts.size());
+    Eigen::VectorXd f(pts.size());
+    double total = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      xyz.col(i) = pts[i].position;
+      f(i) = pts[i].force;
+      total += f(i);
+    }
+    const bool by_path = d.folder != name;
+    const auto png =
+        options.output_dir / (by_path ? fmt::format("contact-forces-{}-{}.png", name, d.path)
+                                      : fmt::format("contact-forces-{}.png", name));
+    plots::contact_map(yarns, xyz, f,
+                       // Two lines ("\\n": gnuplot's escape in a double-quoted string).
+                       fmt::format("{}: normal contact forces at the end\\n({} points, largest "
+                                   "{:.2f} N, total {:.1f} N)",
+                                   d.label, pts.size(), f.size() ? f.maxCoeff() : 0.0, total),
+                       png);
+    outcome.plots.push_back(png);
+  }
   return outcome;
 }
 

@@ -238,6 +238,7 @@ void add_picture_frame_test(Fabric& fabric, const PictureFrameParameters& p) {
   if (test.central.empty())
     fail(fmt::format("no crossing lies in the central region ({} of the side {} m)",
                      p.central_region, L));
+  test.all = find_crossings(fabric, [](const Eigen::Vector2d&) { return true; });
   // Locking: the first direction whose neighbouring yarns touch, acos(w / p).
   test.locking_angle = std::numbers::pi / 2;
   for (const bool warp : {true, false}) {
@@ -388,6 +389,20 @@ read_bias_extension(const Model& model, double time, const Eigen::Matrix3Xd& x,
   out.ideal_angle =
       bias_extension_angle(std::max(0.0, out.displacement), test.height, test.width) / kDegree;
   out.measured = measure_shear(test.central, x);
+  return out;
+}
+
+std::vector<double> local_shear(const std::vector<CrossingNodes>& crossings,
+                                const Eigen::Matrix3Xd& x) {
+  std::vector<double> out;
+  out.reserve(crossings.size());
+  for (const CrossingNodes& c : crossings) {
+    // measure_shear's expression, term for term: the same doubles.
+    const Eigen::Vector2d a = (x.col(c.warp[2]) - x.col(c.warp[0])).head<2>();
+    const Eigen::Vector2d b = (x.col(c.weft[2]) - x.col(c.weft[0])).head<2>();
+    const double phi = std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)) / kDegree;
+    out.push_back(90 - phi);
+  }
   return out;
 }
 

@@ -122,4 +122,11 @@ struct BiasExtensionReading {
 BiasExtensionReading read_bias_extension(const Model& model, double time, const Eigen::Matrix3Xd& x,
                                          const Eigen::Matrix<double, 6, Eigen::Dynamic>& reactions);
 
+/// The local shear angle at each crossing at positions x (3 x n_nodes, m), degrees, in the order
+/// of `crossings`: 90 less the in-plane angle from the warp's tangent to the weft's, as
+/// measure_shear computes it per crossing (whose mean is the mean of these). The deformed
+/// specimen's pictures of yarnsim study colour the crossings by it.
+std::vector<double> local_shear(const std::vector<CrossingNodes>& crossings,
+                                const Eigen::Matrix3Xd& x);
+
 } // namespace yarnsim::textile
