@@ -205,6 +205,10 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
     friction_.resize(work_.size());
     twist_.resize(work_.size());
   }
+  // Half of each definition's compaction at this time, m: looked up once, not per pair.
+  std::vector<double> half_compaction(definitions_.size());
+  for (std::size_t k = 0; k < definitions_.size(); ++k)
+    half_compaction[k] = definitions_[k]->compaction.at(time_) / 2;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t w = range.begin(); w != range.end(); ++w) {
@@ -218,7 +222,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
                         const auto& ca = curves_[d.spline[item.pair.first]];
                         const auto& cb = curves_[d.spline[item.pair.second]];
                         // The compaction grows both contact radii by half of it.
-                        const double half = d.compaction.at(time_) / 2;
+                        const double half = half_compaction[item.definition];
                         const double ra = d.radius[item.pair.first] + half;
                         const double rb = d.radius[item.pair.second] + half;
                         const auto& sa = ca.segment(d.segment[item.pair.first]);

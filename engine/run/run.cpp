@@ -1,6 +1,7 @@
 #include "engine/run/run.hpp"
 
 #include "engine/output/checkpoint_file.hpp"
+#include "engine/output/csv_reader.hpp"
 #include "engine/output/csv_writer.hpp"
 #include "engine/output/results_file.hpp"
 #include "engine/output/serial_writer.hpp"
@@ -17,13 +18,11 @@
 #include <cstdio>
 #include <deque>
 #include <fmt/format.h>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <memory>
 #include <numbers>
 #include <optional>
-#include <sstream>
 #include <system_error>
 #include <unistd.h>
 
@@ -349,36 +348,18 @@ public:
 
   /// The ideal angles and forces of the rows kept: the energy method marches over them.
   void resume(const std::filesystem::path& file, long rows) override {
-    std::ifstream in(file);
-    std::string line;
-    if (!in || !std::getline(in, line))
-      throw std::runtime_error(
-          fmt::format("cannot read {} to resume the bias extension's curves", file.string()));
-    auto split = [](const std::string& text) {
-      std::vector<std::string> cells;
-      std::stringstream stream(text);
-      for (std::string cell; std::getline(stream, cell, ',');)
-        cells.push_back(cell);
-      return cells;
-    };
-    const std::vector<std::string> header = split(line);
-    auto column = [&](std::string_view name) {
-      const auto it = std::find(header.begin(), header.end(), name);
-      if (it == header.end())
+    const output::CsvTable table = output::read_csv_table(file, rows);
+    for (const char* name : {"ideal_angle [deg]", "force [N]"})
+      if (table.column(name) < 0)
         throw std::runtime_error(fmt::format(
             "{} has no column '{}' to resume the bias extension's curves", file.string(), name));
-      return static_cast<std::size_t>(it - header.begin());
-    };
-    const std::size_t angle = column("ideal_angle [deg]"), force = column("force [N]");
-    for (long k = 0; k < rows && std::getline(in, line); ++k) {
-      const std::vector<std::string> cells = split(line);
-      if (cells.size() != header.size())
-        throw std::runtime_error(fmt::format("{}: row {} has {} cells, the header {}",
-                                             file.string(), k + 1, cells.size(), header.size()));
-      const double gamma = std::stod(cells[angle]) * std::numbers::pi / 180;
+    const std::vector<double> angle = table.numbers("ideal_angle [deg]");
+    const std::vector<double> force = table.numbers("force [N]");
+    for (std::size_t k = 0; k < angle.size(); ++k) {
+      const double gamma = angle[k] * std::numbers::pi / 180;
       if (gamma > gamma_.back()) {
         gamma_.push_back(gamma);
-        force_.push_back(std::stod(cells[force]));
+        force_.push_back(force[k]);
       }
     }
   }

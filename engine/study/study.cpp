@@ -2,6 +2,7 @@
 
 #include "engine/input/read_deck.hpp"
 #include "engine/model/deck_schema.hpp"
+#include "engine/output/csv_reader.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/study/plots.hpp"
@@ -46,24 +47,12 @@ std::string read_text(const std::filesystem::path& file) {
   return s.str();
 }
 
-/// Numeric columns of a CSV written by CsvWriter (header line, then numbers).
+/// Numeric columns of a CSV written by CsvWriter (header line, then numbers), in file order.
 std::vector<std::vector<double>> read_csv(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  if (!in)
-    throw std::runtime_error(fmt::format("cannot read {}", file.string()));
-  std::string line;
-  std::getline(in, line);
+  const output::CsvTable table = output::read_csv_table(file);
   std::vector<std::vector<double>> cols;
-  while (std::getline(in, line)) {
-    std::stringstream row(line);
-    std::string cell;
-    std::size_t c = 0;
-    while (std::getline(row, cell, ',')) {
-      if (cols.size() <= c)
-        cols.resize(c + 1);
-      cols[c++].push_back(std::stod(cell));
-    }
-  }
+  for (const std::string& name : table.header)
+    cols.push_back(table.numbers(name));
   return cols;
 }
 

@@ -1,5 +1,6 @@
 #include "engine/study/test_outputs.hpp"
 
+#include "engine/output/csv_reader.hpp"
 #include "engine/study/plots.hpp"
 #include "engine/study/shear_stages.hpp"
 
@@ -21,65 +22,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// range where the benchmark expects the yarns to follow the test's kinematics.
 constexpr double kDeviationRange = 30;
 
-/// A CSV file as text: its header and the cells of each row.
-struct CsvTable {
-  std::filesystem::path file;
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-
-  /// The index of a column, -1 when the file has none of that name.
-  std::ptrdiff_t column(std::string_view name) const {
-    const auto it = std::find(header.begin(), header.end(), name);
-    return it == header.end() ? -1 : it - header.begin();
-  }
-
-  /// A column's values (NaN for every row when the file has no such column).
-  std::vector<double> numbers(std::string_view name) const {
-    std::vector<double> out(rows.size(), kNaN);
-    const std::ptrdiff_t c = column(name);
-    if (c < 0)
-      return out;
-    for (std::size_t r = 0; r < rows.size(); ++r) {
-      const std::string& cell = rows[r][static_cast<std::size_t>(c)];
-      double v = kNaN;
-      const auto [end, ec] = std::from_chars(cell.data(), cell.data() + cell.size(), v);
-      if (ec != std::errc() || end != cell.data() + cell.size())
-        throw std::runtime_error(fmt::format("{}: row {}, column '{}': expected a number, found "
-                                             "'{}'",
-                                             file.string(), r + 1, name, cell));
-      out[r] = v;
-    }
-    return out;
-  }
-};
-
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> cells;
-  std::stringstream stream(line);
-  for (std::string cell; std::getline(stream, cell, ',');)
-    cells.push_back(cell);
-  if (!line.empty() && line.back() == ',')
-    cells.emplace_back();
-  return cells;
-}
-
-/// A run's CSV file (written by CsvWriter: a header with units, then numbers).
-CsvTable read_table(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  CsvTable table{file, {}, {}};
-  std::string line;
-  if (!in || !std::getline(in, line))
-    throw std::runtime_error(fmt::format("cannot read {}", file.string()));
-  table.header = split(line);
-  while (std::getline(in, line)) {
-    table.rows.push_back(split(line));
-    if (table.rows.back().size() != table.header.size())
-      throw std::runtime_error(fmt::format("{}: row {} has {} cells, the header {}", file.string(),
-                                           table.rows.size(), table.rows.back().size(),
-                                           table.header.size()));
-  }
-  return table;
-}
+using output::CsvTable;
 
 /// A cell of the study's own CSV files: quoted (RFC 4180) when it holds a comma, quote or line
 /// break, as a label may.
@@ -221,7 +164,7 @@ TestOutputs write_test_outputs(StudyTest test, const std::vector<const TestRun*>
     out << '\n';
     for (std::size_t r = 0; r < runs.size(); ++r) {
       const TestRun& run = *runs[r];
-      const CsvTable table = read_table(dir / run.folder / "curves.csv");
+      const CsvTable table = output::read_csv_table(dir / run.folder / "curves.csv");
       std::vector<std::ptrdiff_t> index{table.column("time [s]")};
       for (const std::string& c : columns)
         index.push_back(table.column(c));

@@ -72,6 +72,14 @@ double ramp_fraction(LoadingRamp shape, double tau) {
   return shape == LoadingRamp::Linear ? tau : smooth_step(1.0, tau);
 }
 
+SolutionStep preliminary_step(const LoadingParameters& p, double duration, double t0,
+                              std::string_view test) {
+  LoadingParameters q = p;
+  q.loading_time = duration;
+  q.dt = q.dt_max = q.dt_min = 0;
+  return loading_step(q, t0, test);
+}
+
 TimeTable ramp_table(double t0, double t1, double value, LoadingRamp shape) {
   if (value == 0)
     return TimeTable::constant(0.0);

@@ -56,6 +56,12 @@ struct LoadingParameters {
 /// outside (0, 1].
 SolutionStep loading_step(const LoadingParameters& p, double t0, std::string_view test);
 
+/// A test's preliminary step (a picture frame's pretension, a bias extension's compaction) of
+/// `duration` from t0: `p`'s settings (type, tolerances, Newmark, explicit) with the default
+/// increments of that duration. Throws as loading_step.
+SolutionStep preliminary_step(const LoadingParameters& p, double duration, double t0,
+                              std::string_view test);
+
 /// s(tau) of `shape` at tau in [0, 1] (0 at 0, 1 at 1).
 double ramp_fraction(LoadingRamp shape, double tau);
 

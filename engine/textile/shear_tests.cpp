@@ -71,6 +71,18 @@ find_crossings(const Fabric& fabric, const std::function<bool(const Eigen::Vecto
   return out;
 }
 
+namespace {
+
+/// The shear angle at one crossing, degrees: 90 less the in-plane angle from the warp's tangent
+/// to the weft's (in (-180, 180], 90 in the reference).
+double crossing_shear(const CrossingNodes& c, const Eigen::Matrix3Xd& x) {
+  const Eigen::Vector2d a = (x.col(c.warp[2]) - x.col(c.warp[0])).head<2>();
+  const Eigen::Vector2d b = (x.col(c.weft[2]) - x.col(c.weft[0])).head<2>();
+  return 90 - std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)) / kDegree;
+}
+
+} // namespace
+
 MeasuredShear measure_shear(const std::vector<CrossingNodes>& crossings,
                             const Eigen::Matrix3Xd& x) {
   MeasuredShear out;
@@ -80,11 +92,7 @@ MeasuredShear measure_shear(const std::vector<CrossingNodes>& crossings,
   out.min = std::numeric_limits<double>::infinity();
   out.max = -out.min;
   for (const CrossingNodes& c : crossings) {
-    const Eigen::Vector2d a = (x.col(c.warp[2]) - x.col(c.warp[0])).head<2>();
-    const Eigen::Vector2d b = (x.col(c.weft[2]) - x.col(c.weft[0])).head<2>();
-    // The angle from the warp to the weft, in (-180, 180] degrees: 90 in the reference.
-    const double phi = std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)) / kDegree;
-    const double gamma = 90 - phi;
+    const double gamma = crossing_shear(c, x);
     sum += gamma;
     sum2 += gamma * gamma;
     out.min = std::min(out.min, gamma);
@@ -133,10 +141,7 @@ void add_picture_frame_test(Fabric& fabric, const PictureFrameParameters& p) {
   double t_shear = t0;
   const double T_pre = p.pretension_time > 0 ? p.pretension_time : p.loading_time / 5;
   if (p.pretension > 0) {
-    LoadingParameters q = p;
-    q.loading_time = T_pre;
-    q.dt = q.dt_max = q.dt_min = 0;
-    pretension_step = loading_step(q, t0, "picture frame (pretension)");
+    pretension_step = preliminary_step(p, T_pre, t0, "picture frame (pretension)");
     t_shear = t0 + T_pre;
   }
   const SolutionStep step = loading_step(p, t_shear, "picture frame");
@@ -328,11 +333,9 @@ void add_bias_extension_test(Fabric& fabric, const BiasSpecimenParameters& speci
     if (crossing == model.spline_contacts.end())
       fail("a compaction needs the spline contact 'warp-weft' between the crossing yarns (the "
            "surface contact has no compaction in this version)");
-    LoadingParameters q = p;
-    q.loading_time = p.compaction_time > 0 ? p.compaction_time : p.loading_time / 5;
-    q.dt = q.dt_max = q.dt_min = 0;
-    compaction_step = loading_step(q, t0, "bias extension (compaction)");
-    t_pull = t0 + q.loading_time;
+    const double T_c = p.compaction_time > 0 ? p.compaction_time : p.loading_time / 5;
+    compaction_step = preliminary_step(p, T_c, t0, "bias extension (compaction)");
+    t_pull = t0 + T_c;
     crossing->compaction = ramp_table(t0, t_pull, p.compaction, p.ramp);
   }
   const SolutionStep step = loading_step(p, t_pull, "bias extension");
@@ -396,13 +399,8 @@ std::vector<double> local_shear(const std::vector<CrossingNodes>& crossings,
                                 const Eigen::Matrix3Xd& x) {
   std::vector<double> out;
   out.reserve(crossings.size());
-  for (const CrossingNodes& c : crossings) {
-    // measure_shear's expression, term for term: the same doubles.
-    const Eigen::Vector2d a = (x.col(c.warp[2]) - x.col(c.warp[0])).head<2>();
-    const Eigen::Vector2d b = (x.col(c.weft[2]) - x.col(c.weft[0])).head<2>();
-    const double phi = std::atan2(a.x() * b.y() - a.y() * b.x(), a.dot(b)) / kDegree;
-    out.push_back(90 - phi);
-  }
+  for (const CrossingNodes& c : crossings)
+    out.push_back(crossing_shear(c, x)); // measure_shear's values, the same doubles
   return out;
 }
 
