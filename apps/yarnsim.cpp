@@ -210,6 +210,13 @@ int main(int argc, char** argv) {
     const yarnsim::RunSummary s = yarnsim::run_model(model, options);
     fmt::print(stderr, "done: {} increments, {} Newton iterations in {:.2f} s; results in {}\n",
                s.increments, s.iterations, s.wall_seconds, out_dir.string());
+    if (s.damping_dissipation > 0)
+      fmt::print(stderr,
+                 "Rayleigh damping dissipated {:.4g} J, {:.3g} % of the {:.4g} J stored at the "
+                 "end (strain and contact)\n",
+                 s.damping_dissipation,
+                 s.stored_energy > 0 ? 100 * s.damping_dissipation / s.stored_energy : 0.0,
+                 s.stored_energy);
     return kSuccess;
   } catch (const yarnsim::InputError& e) {
     fmt::print(stderr, "{}\nerror: the deck has {} problem(s); nothing was run\n", e.what(),

@@ -224,6 +224,15 @@ private:
   const BiaxialTest& test_;
 };
 
+/// Whether a step of the model has mass-proportional damping on a path that counts its
+/// dissipation (dynamic and explicit steps).
+bool has_mass_damping(const Model& model) {
+  for (const SolutionStep& step : model.steps)
+    if (step.type != StepType::Static && step.rayleigh_mass > 0)
+      return true;
+  return false;
+}
+
 /// The curves of a picture frame (docs/shear-tests.md): the crosshead's travel and force, the
 /// frame's shear angle and the one measured on the central yarns, the benchmark's shear forces,
 /// the stored energies and, with contact between yarns of one direction, how many of those
@@ -243,6 +252,9 @@ public:
     friction_ = has_friction(model);
     if (friction_)
       file_.columns.push_back("friction_dissipation [J]");
+    damping_ = has_mass_damping(model);
+    if (damping_)
+      file_.columns.push_back("damping_dissipation [J]");
   }
 
   std::vector<double> values(const Simulation& sim) override {
@@ -272,6 +284,8 @@ public:
     }
     if (friction_)
       out.push_back(sim.contact() ? sim.contact()->summary().dissipation : 0.0);
+    if (damping_)
+      out.push_back(sim.energy_balance().damping);
     return out;
   }
 
@@ -297,6 +311,7 @@ private:
   const PictureFrameTest& test_;
   bool parallel_ = false;
   bool friction_ = false;
+  bool damping_ = false;
   std::optional<double> locked_at_; ///< degrees, the frame angle of the first parallel contact
 };
 
@@ -307,13 +322,16 @@ private:
 class BiasExtensionCurves final : public TestCurves {
 public:
   explicit BiasExtensionCurves(const Model& model)
-      : model_(model), test_(*model.bias_extension), friction_(has_friction(model)) {
+      : model_(model), test_(*model.bias_extension), friction_(has_friction(model)),
+        damping_(has_mass_damping(model)) {
     file_.columns.insert(file_.columns.end(), {"displacement [m]", "force [N]", "ideal_angle [deg]",
                                                "measured_angle [deg]", "angle_spread [deg]",
                                                "normalised_shear_force [N/m]", "strain_energy [J]",
                                                "contact_energy [J]", "kinetic_energy [J]"});
     if (friction_)
       file_.columns.push_back("friction_dissipation [J]");
+    if (damping_)
+      file_.columns.push_back("damping_dissipation [J]");
     // The unloaded specimen: the energy method's start.
     gamma_.push_back(0.0);
     force_.push_back(0.0);
@@ -339,6 +357,8 @@ public:
         sim.kinetic_energy()};
     if (friction_)
       out.push_back(sim.contact() ? sim.contact()->summary().dissipation : 0.0);
+    if (damping_)
+      out.push_back(sim.energy_balance().damping);
     return out;
   }
 
@@ -368,6 +388,7 @@ private:
   const Model& model_;
   const BiasExtensionTest& test_;
   bool friction_;
+  bool damping_;
   std::vector<double> gamma_, force_; ///< rad and N, the curve so far (from the unloaded start)
 };
 
@@ -925,6 +946,9 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
   if (sim.contact())
     summary.final_contacts = sim.contact()->points();
   summary.linear_solver = sim.linear_solver_name();
+  const EnergyBalance energy = sim.energy_balance();
+  summary.damping_dissipation = energy.damping;
+  summary.stored_energy = energy.internal + energy.contact;
   results.close("completed",
                 fmt::format("{} increments, {} Newton iterations, {:.3f} s, linear solver {}",
                             summary.increments, summary.iterations, summary.wall_seconds,

@@ -37,6 +37,10 @@ struct RunSummary {
   Eigen::Matrix3Xd final_positions;         ///< 3 x n_nodes, m
   std::vector<ContactPoint> final_contacts; ///< active contact points at the end
   std::string linear_solver;
+  /// J: energy dissipated by Rayleigh damping (simulation.hpp EnergyBalance::damping) and the
+  /// strain and contact energy stored at the end.
+  double damping_dissipation = 0;
+  double stored_energy = 0;
 };
 
 /// Runs every step of the model, or the rest of them from options.restart_from. Throws

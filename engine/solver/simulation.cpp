@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 #include <numbers>
 #include <tbb/flow_graph.h>
 
@@ -129,6 +130,19 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   // 0.8 of floor_c EI / h ratio).
   floor_moment_ = 16 * floor_c * max_bending / min_length * ratio;
   floor_length_ = 1e-12 * std::max(box.diagonal().norm(), min_length);
+  // The smallest contact radius of any spline or surface in a contact: the step limit.
+  max_contact_step_ = std::numeric_limits<double>::infinity();
+  for (const SplineContactDefinition& c : model.spline_contacts)
+    for (const std::vector<int>* group : {&c.group_a, &c.group_b})
+      for (int s : *group)
+        max_contact_step_ =
+            std::min(max_contact_step_, c.radius > 0 ? c.radius : model.splines[s].radius);
+  for (const SurfaceContactDefinition& c : model.surface_contacts)
+    for (const std::vector<int>* group : {&c.group_a, &c.group_b})
+      for (int s : *group)
+        max_contact_step_ = std::min({max_contact_step_, model.surfaces[s].a, model.surfaces[s].b});
+  if (!std::isfinite(max_contact_step_))
+    max_contact_step_ = 0;
   min_length_ = min_length;
   equation_weight_.resize(assembler_->n_equations());
   for (int d = 0; d < kDofsPerNode * n; ++d)
@@ -631,7 +645,6 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     report.energy_history.push_back(std::abs(delta.dot(rhs_)));
     lambda = options_.line_search && !damping_gave_up ? next_lambda : 1.0;
     next_lambda = 1;
-    move_along(delta, lambda);
     last_du = last_da = 0;
     const std::vector<int>& eq = assembler_->equations();
     for (int i = 0; i < n; ++i) {
@@ -644,6 +657,14 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       last_du = std::max(last_du, std::sqrt(du));
       last_da = std::max(last_da, std::sqrt(da));
     }
+    // Step limit: no node moves by more than the smallest contact radius in one correction
+    // (formulation.md "Solution"). A larger correction comes from a near-mechanism of the
+    // tangent (a yarn turning about the line through its pinned ends, a floating yarn) and
+    // would carry yarns through each other, beyond what the contact's linearisation at the
+    // current candidates describes.
+    if (options_.line_search && max_contact_step_ > 0 && lambda * last_du > max_contact_step_)
+      lambda = max_contact_step_ / last_du;
+    move_along(delta, lambda);
   }
   // The last iteration's iterate was vetoed and damped back (the loop's `continue`).
   return fmt::format("no convergence in {} iterations (the last iterates were vetoed: {})",
@@ -676,6 +697,19 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
       const Eigen::Vector3d v = nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
       Eigen::Vector3d W, A;
       newmark_angular(nm, {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)}, alpha, W, A);
+      // Energy dissipated by the mass-proportional damping c M, J: for translations the work
+      // of the mean damping force over the increment, c m (v_n + v) / 2 . du, the quadrature
+      // the external work uses (with the trapezoidal rule, beta = 1/4, the balance of the
+      // discrete equations); for rotations its rate c W.J W (W the material angular velocity,
+      // J the principal rotary inertias) by the trapezoidal rule. The stiffness-proportional
+      // part is not counted.
+      if (step.rayleigh_mass > 0) {
+        const Eigen::Vector3d& J = rotary_inertia_.col(i);
+        const Eigen::Vector3d& W_n = state_.W_n.col(i);
+        damping_work_ += step.rayleigh_mass *
+                         (0.5 * mass_(i) * (state_.v_n.col(i) + v).dot(du) +
+                          0.5 * dt * (W_n.dot(J.cwiseProduct(W_n)) + W.dot(J.cwiseProduct(W))));
+      }
       state_.v_n.col(i) = v;
       state_.a_n.col(i) = a;
       state_.W_n.col(i) = W;

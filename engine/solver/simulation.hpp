@@ -80,8 +80,9 @@ struct StageTimes {
   double iteration_graph = 0;
 };
 
-/// Energies of the last completed increment, J. The work of prescribed motions (reactions) and
-/// the energy dissipated by damping are counted in explicit steps only.
+/// Energies of the last completed increment, J. The work of prescribed motions (reactions) is
+/// counted in explicit steps only; the energy dissipated by damping in explicit steps and, for
+/// the mass-proportional part, in dynamic (Newmark) steps.
 struct EnergyBalance {
   double kinetic = 0;
   double internal = 0; ///< strain energy of the beams
@@ -239,6 +240,9 @@ private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> reactions_;
   double floor_force_ = 0, floor_moment_ = 0, floor_length_ = 0;
   double min_length_ = 1; ///< shortest element, m
+  /// m: the largest translation one Newton correction may apply at a node, the smallest contact
+  /// radius of the model's contacts; 0 without contact (no limit).
+  double max_contact_step_ = 0;
   double external_work_ = 0;
   double prescribed_work_ = 0, damping_work_ = 0; ///< J, explicit steps
   double energy_reference_ = 0; ///< J, balance at the start of the last explicit step

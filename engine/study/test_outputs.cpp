@@ -133,12 +133,15 @@ std::vector<std::string> test_curve_columns(StudyTest test) {
             "contact_energy [J]",
             "kinetic_energy [J]",
             "parallel_contacts [-]",
-            "friction_dissipation [J]"};
+            "friction_dissipation [J]",
+            "damping_dissipation [J]"};
   case StudyTest::BiasExtension:
-    return {"displacement [m]",        "force [N]",          "ideal_angle [deg]",
-            "measured_angle [deg]",    "angle_spread [deg]", "normalised_shear_force [N/m]",
-            "strain_energy [J]",       "contact_energy [J]", "kinetic_energy [J]",
-            "friction_dissipation [J]"};
+    return {"displacement [m]",       "force [N]",
+            "ideal_angle [deg]",      "measured_angle [deg]",
+            "angle_spread [deg]",     "normalised_shear_force [N/m]",
+            "strain_energy [J]",      "contact_energy [J]",
+            "kinetic_energy [J]",     "friction_dissipation [J]",
+            "damping_dissipation [J]"};
   case StudyTest::Biaxial:
     break;
   }

@@ -127,6 +127,11 @@ constexpr KeySpec kExplicitKeys[] = {
     {"energy_monitor", Type::Boolean},
 };
 constexpr TableSpec kExplicit{"explicit", kExplicitKeys};
+constexpr KeySpec kRayleighKeys[] = {
+    {"mass", Type::Number, kOptional, kNonNegative},
+    {"stiffness", Type::Number, kOptional, kNonNegative},
+};
+constexpr TableSpec kRayleigh{"rayleigh", kRayleighKeys};
 /// The keys of every test's loading step (LoadingParameters, engine/textile/loading.hpp).
 constexpr KeySpec kLoadingKeys[] = {
     {"loading_time", Type::Number, kOptional, kPositive},
@@ -140,6 +145,7 @@ constexpr KeySpec kLoadingKeys[] = {
     {"newmark", Type::Table, kOptional, kAnyValue, &kNewmark},
     {"output_every", Type::Integer, kOptional, kAtLeastOne},
     {"explicit", Type::Table, kOptional, kAnyValue, &kExplicit},
+    {"rayleigh", Type::Table, kOptional, kAnyValue, &kRayleigh},
 };
 
 /// A test's own keys followed by kLoadingKeys.
@@ -982,6 +988,18 @@ private:
     }
     p.output_every =
         static_cast<int>(std::min<long long>(t.integer("output_every").value_or(1), 1'000'000'000));
+    if (const CheckedTable* ray = t.table("rayleigh")) {
+      ok = ok && (!ray->present("mass") || ray->valid("mass")) &&
+           (!ray->present("stiffness") || ray->valid("stiffness"));
+      if (p.type == StepType::Static) {
+        t.error("rayleigh", "'rayleigh' damping applies only to dynamic and explicit tests; this "
+                            "test is \"static\"");
+        ok = false;
+      }
+      // Absent mass: the stabilising default of dynamic steps (loading.hpp).
+      p.rayleigh_mass = ray->number("mass").value_or(p.rayleigh_mass);
+      p.rayleigh_stiffness = ray->number("stiffness").value_or(p.rayleigh_stiffness);
+    }
     return ok;
   }
 

@@ -54,6 +54,20 @@ SolutionStep loading_step(const LoadingParameters& p, double t0, std::string_vie
     throw std::invalid_argument(
         fmt::format("{}: expected a static, dynamic or explicit step", test));
   }
+  const bool given = p.rayleigh_mass > 0 || p.rayleigh_stiffness > 0;
+  if (p.type == StepType::Static && given)
+    throw std::invalid_argument(fmt::format(
+        "{}: Rayleigh damping applies only to dynamic and explicit steps; this one is static",
+        test));
+  if (!(p.rayleigh_stiffness >= 0) || !std::isfinite(p.rayleigh_stiffness) ||
+      !std::isfinite(p.rayleigh_mass))
+    throw std::invalid_argument(
+        fmt::format("{}: expected Rayleigh coefficients >= 0, found mass {} and stiffness {}", test,
+                    p.rayleigh_mass, p.rayleigh_stiffness));
+  step.rayleigh_mass = p.rayleigh_mass >= 0          ? p.rayleigh_mass
+                       : p.type == StepType::Dynamic ? kStabilisingDamping
+                                                     : 0.0;
+  step.rayleigh_stiffness = p.rayleigh_stiffness;
   return step;
 }
 

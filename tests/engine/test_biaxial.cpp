@@ -205,8 +205,12 @@ TEST(PictureFrame, OneAndTwoThreadsGiveBitwiseIdenticalResults) {
 }
 
 TEST(Uniaxial, PulledCrimpGoesOutFreeCrimpGrowsAndFreeEndsCarryNoForce) {
-  // examples/uniaxial-warp.toml: the warp pulled to 1.5 %, the weft's ends free.
-  const Model m = read_deck(kExamples / "uniaxial-warp.toml");
+  // examples/uniaxial-warp.toml: the warp pulled to 1.5 %, the weft's ends free. Without the
+  // default stabilising damping: with it a free end carries the viscous force c m v of the
+  // contracting weft it drags (2.0e-3 N here, 1.1e-6 of the warp force), without it nothing.
+  Model m = read_deck(kExamples / "uniaxial-warp.toml");
+  for (SolutionStep& step : m.steps)
+    step.rayleigh_mass = 0;
   ASSERT_TRUE(m.biaxial && m.biaxial->uniaxial == FabricDirection::Warp);
   // Only the warp ends are prescribed: 6 yarns, two ends each.
   EXPECT_EQ(m.prescribed.size(), 12u);

@@ -3,6 +3,7 @@
 #include "deck_errors.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/textile/biaxial.hpp"
+#include "engine/textile/loading.hpp"
 #include "engine/textile/weave.hpp"
 
 #include <algorithm>
@@ -288,6 +289,31 @@ explicit = { mass_scaling_dt = 1e-4, dt = 5e-5, safety_factor = 0.5, stable_dt_e
                        "fabric.toml");
   EXPECT_EQ(m.steps[0].type, StepType::Dynamic);
   EXPECT_EQ(m.steps[0].dt_initial, 0.01);
+}
+
+TEST(FabricDeck, TensionTestsAreStabilisedByDefaultAndTakeTheirRayleighTable) {
+  // Dynamic tension tests get the stabilising mass-proportional damping (loading.hpp); static
+  // and explicit ones none; a deck's table overrides it.
+  Model m = read_deck_string(with("type = \"static\"", "type = \"dynamic\""), "fabric.toml");
+  EXPECT_EQ(m.steps[0].rayleigh_mass, textile::kStabilisingDamping);
+  EXPECT_EQ(m.steps[0].rayleigh_stiffness, 0.0);
+  m = read_deck_string(kValid, "fabric.toml");
+  EXPECT_EQ(m.steps[0].rayleigh_mass, 0.0);
+  m = read_deck_string(with("type = \"static\"", "type = \"explicit\""), "fabric.toml");
+  EXPECT_EQ(m.steps[0].rayleigh_mass, 0.0);
+  m = read_deck_string(with("type = \"static\"", "type = \"dynamic\"\nrayleigh = { mass = 0.0 }"),
+                       "fabric.toml");
+  EXPECT_EQ(m.steps[0].rayleigh_mass, 0.0);
+  m = read_deck_string(with("type = \"static\"",
+                            "type = \"explicit\"\nrayleigh = { mass = 50.0, stiffness = 1e-7 }"),
+                       "fabric.toml");
+  EXPECT_EQ(m.steps[0].rayleigh_mass, 50.0);
+  EXPECT_EQ(m.steps[0].rayleigh_stiffness, 1e-7);
+  auto e = errors_of(with("type = \"static\"", "type = \"static\"\nrayleigh = { mass = -1.0 }"));
+  ASSERT_EQ(e.size(), 2u) << joined(e);
+  EXPECT_EQ(e[0], "fabric.toml:20:12: biaxial.rayleigh: 'rayleigh' damping applies only to dynamic "
+                  "and explicit tests; this test is \"static\"");
+  EXPECT_EQ(e[1], "fabric.toml:20:21: biaxial.rayleigh.mass: expected a number >= 0, found -1.0");
 }
 
 TEST(FabricDeck, ImplicitKeysOnAnExplicitTestAndBadExplicitValuesAreReported) {
