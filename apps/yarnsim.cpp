@@ -66,16 +66,21 @@ int main(int argc, char** argv) {
   int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   std::string solver = "auto";
   bool quiet = false;
+  bool timings = false;
   CLI::App* run = app.add_subcommand("run", "Run a model deck (TOML); see docs/input.md");
   run->add_option("deck", deck, "Model deck (.toml)")->required();
   run->add_option("--output,-o", output,
                   "Output folder (default: results/<deck name> in the current folder)");
   run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   run->add_option("--linear-solver", solver,
-                  "Sparse direct solver: auto (default: ldlt unless the model has applied "
-                  "moments), lu (UMFPACK) or ldlt (symmetric part)")
+                  "Sparse direct solver: auto (default: lu where the tangent is not symmetric: "
+                  "applied moments, friction or surface contact; ldlt otherwise), lu (UMFPACK) "
+                  "or ldlt (symmetric part)")
       ->check(CLI::IsMember({"auto", "lu", "ldlt"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
+  run->add_flag("--timings", timings,
+                "At the end, the wall time of each stage of the Newton iterations (broad and "
+                "narrow phase, assembly, factorisation, solve)");
   std::string restart;
   int stop_after = 0;
   run->add_option("--restart", restart,
@@ -217,6 +222,8 @@ int main(int argc, char** argv) {
                  s.damping_dissipation,
                  s.stored_energy > 0 ? 100 * s.damping_dissipation / s.stored_energy : 0.0,
                  s.stored_energy);
+    if (timings)
+      fmt::print(stderr, "{}", yarnsim::stage_times_report(s.stage_times, s.iterations));
     return kSuccess;
   } catch (const yarnsim::InputError& e) {
     fmt::print(stderr, "{}\nerror: the deck has {} problem(s); nothing was run\n", e.what(),

@@ -191,6 +191,19 @@ Eigen::Vector3d SuperEllipticalCylinder::axis_point(double zeta) const {
   return 0.5 * (1.0 - zeta) * nodes_[0].position + 0.5 * (1.0 + zeta) * nodes_[1].position;
 }
 
+Eigen::AlignedBox3d SuperEllipticalCylinder::bounding_box(double window) const {
+  Eigen::AlignedBox3d box;
+  for (int k = 0; k < 2; ++k) {
+    Eigen::Vector3d extent;
+    for (int i = 0; i < 3; ++i)
+      extent(i) = section_.support(Eigen::Vector2d(rotation_[k](i, 0), rotation_[k](i, 1)));
+    box.extend(nodes_[k].position - extent);
+    box.extend(nodes_[k].position + extent);
+  }
+  const Eigen::Vector3d grow = 0.5 * window * box.sizes();
+  return {box.min() - grow, box.max() + grow};
+}
+
 Eigen::Vector3d SuperEllipticalCylinder::point(double zeta, double theta) const {
   const Eigen::Vector2d s = section_.point(theta).value;
   const double n0 = 0.5 * (1.0 - zeta);

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace yarnsim::contact {
 
@@ -138,6 +139,15 @@ public:
 
   /// Axis point (1 - zeta)/2 x_A + (1 + zeta)/2 x_B, metres.
   Eigen::Vector3d axis_point(double zeta) const;
+
+  /// An axis-aligned box, metres, that holds the surface for zeta in [-1 - h, 1 + h]
+  /// (`window` = h >= 0: the end window over which a contact past a node keeps a share), with
+  /// the sections as they are oriented, for the broad phase. At end k the section reaches
+  /// e_i . x_k +- support(Q_k^T e_i) along axis e_i; Gamma is linear in zeta at fixed theta, so
+  /// over [-1, 1] the surface lies within the union of the two end boxes, and with
+  /// t = (1 + zeta) / 2 up to h / 2 beyond [0, 1], within that union grown by h / 2 of its size
+  /// on every side.
+  Eigen::AlignedBox3d bounding_box(double window) const;
 
   /// Gamma(zeta, theta), metres.
   Eigen::Vector3d point(double zeta, double theta) const;

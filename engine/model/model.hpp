@@ -235,7 +235,7 @@ struct SurfaceContactDefinition {
   std::string name;
   std::vector<int> group_a, group_b;
   InterfaceLawParameters law;
-  double margin = 0; ///< m, broad-phase box inflation beyond the section; 0: the larger semi-axis
+  double margin = 0; ///< m, broad-phase box inflation beyond the section; 0: the smaller semi-axis
   /// Coulomb friction at the contact points (contact/surface_friction.hpp): the coefficients and
   /// the tangential penalty; no tangential damping and no torsional friction on this contact.
   FrictionParameters friction{};

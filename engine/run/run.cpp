@@ -949,6 +949,7 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
   const EnergyBalance energy = sim.energy_balance();
   summary.damping_dissipation = energy.damping;
   summary.stored_energy = energy.internal + energy.contact;
+  summary.stage_times = sim.stage_times();
   results.close("completed",
                 fmt::format("{} increments, {} Newton iterations, {:.3f} s, linear solver {}",
                             summary.increments, summary.iterations, summary.wall_seconds,

@@ -7,6 +7,7 @@
 #include "engine/contact/spline_contact_set.hpp"
 #include "engine/model/model.hpp"
 #include "engine/solver/linear_solver.hpp"
+#include "engine/solver/simulation.hpp"
 
 #include <atomic>
 #include <filesystem>
@@ -41,6 +42,7 @@ struct RunSummary {
   /// strain and contact energy stored at the end.
   double damping_dissipation = 0;
   double stored_energy = 0;
+  StageTimes stage_times; ///< wall time per stage of the Newton iterations, s
 };
 
 /// Runs every step of the model, or the rest of them from options.restart_from. Throws

@@ -862,4 +862,21 @@ Eigen::Vector3d Simulation::angular_momentum() const {
   return L;
 }
 
+std::string stage_times_report(const StageTimes& t, int iterations) {
+  const double per = iterations > 0 ? 1e3 / iterations : 0.0;
+  std::string out = fmt::format("stage times over {} Newton iterations (wall):\n", iterations);
+  const auto row = [&](const char* name, double seconds) {
+    out += fmt::format("  {:<40} {:9.3f} s {:9.3f} ms/iteration\n", name, seconds, per * seconds);
+  };
+  row("broad phase", t.broad_phase);
+  row("narrow phase (contact kernels)", t.narrow_phase);
+  row("beam assembly", t.beam_assembly);
+  row("other assembly (contact, inertia, loads)", t.other_assembly);
+  row("iteration graph (the above, in parallel)", t.iteration_graph);
+  row("convergence check and symbolic analysis", t.convergence_check);
+  row("factorisation", t.factorisation);
+  row("solve", t.solve);
+  return out;
+}
+
 } // namespace yarnsim

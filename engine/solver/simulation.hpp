@@ -80,6 +80,9 @@ struct StageTimes {
   double iteration_graph = 0;
 };
 
+/// A table of the stage times, s and ms per Newton iteration, for `yarnsim run --timings`.
+std::string stage_times_report(const StageTimes& times, int iterations);
+
 /// Energies of the last completed increment, J. The work of prescribed motions (reactions) is
 /// counted in explicit steps only; the energy dissipated by damping in explicit steps and, for
 /// the mass-proportional part, in dynamic (Newmark) steps.

@@ -202,7 +202,7 @@ void finish_fabric(Fabric& fabric, std::span<const double> contact_radius,
                     section.exponent};
     (y.warp ? surfaces.group_a : surfaces.group_b)
         .push_back(static_cast<int>(model.surfaces.size()));
-    surfaces.margin = std::max({surfaces.margin, surface.a, surface.b});
+    surfaces.margin = std::max(surfaces.margin, std::min(surface.a, surface.b));
     model.surfaces.push_back(std::move(surface));
   }
   if (contact.group_a.empty() || contact.group_b.empty())

@@ -4,7 +4,8 @@
 # the active contact points, and contact_points.csv a row per active point (definition, the two
 # splines and segments, position, gap, force, normal), the same on 1 and 2 threads.
 # Cases: the crossing beams (spline contact, touching at the start), a 3 x 3 biaxial weave
-# (curves.csv, several contacts per increment), the explicit flying beam (energy.csv).
+# (curves.csv, several contacts per increment), the explicit flying beam (energy.csv), and the
+# stage times of --timings.
 # Usage: monitors.sh YARNSIM REPO WORKDIR
 set -u
 yarnsim="$1"; repo="$2"; work="$3"
@@ -105,6 +106,17 @@ csv_row flying/energy.csv 1 | awk -F, '{ exit !(NF == 9 && $1 == 0 && $2 == 0 &&
                                                 $4 == 0 && $5 == 0 && $6 == 0 && $7 == 0 && $8 == 0 && $9 == 0) }' ||
   { echo "FAIL flying: the first row of energy.csv is not the state at rest: $(csv_row flying/energy.csv 1)"; fail=1; }
 [ "$(wc -l < flying/energy.csv)" -eq 4 ] || { echo "FAIL flying: energy.csv has $(($(wc -l < flying/energy.csv) - 1)) rows, expected 3"; fail=1; }
+
+# 4. --timings: a table of the stage times at the end, over the run's Newton iterations.
+"$yarnsim" run "$repo/examples/crossing-beams.toml" -o timings -q --threads 1 --timings 2> timings.txt ||
+  { echo "FAIL timings: exit $?"; fail=1; }
+iterations=$(sed -n 's/^done: [0-9]* increments, \([0-9]*\) Newton iterations.*/\1/p' timings.txt)
+grep -q "^stage times over ${iterations:-none} Newton iterations (wall):$" timings.txt ||
+  { echo "FAIL timings: no stage table over the run's ${iterations:-?} iterations: $(cat timings.txt)"; fail=1; }
+for stage in "broad phase" "narrow phase" "beam assembly" "factorisation" "solve"; do
+  grep -Eq "^  $stage.* [0-9]+\.[0-9]{3} s +[0-9]+\.[0-9]{3} ms/iteration$" timings.txt ||
+    { echo "FAIL timings: no row '$stage'"; fail=1; }
+done
 
 if [ "$fail" -eq 0 ]; then echo "monitors: all checks passed"; fi
 exit "$fail"

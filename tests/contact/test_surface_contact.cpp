@@ -237,6 +237,53 @@ TEST(SuperEllipse, SupportPointHasTheGivenNormalAndMaximisesTheProjection) {
   }
 }
 
+// ---- The broad phase's box ---------------------------------------------------------------------
+
+// SuperEllipticalCylinder::bounding_box holds every surface point for zeta in the element and its
+// end windows, whatever the two ends' rotations, and is tight: along each axis some surface point
+// within the element reaches the end boxes' faces, and a flat section lying in the x-y plane gets
+// a box of height 2 b, not 2 max(a, b).
+TEST(SuperEllipticalCylinder, BoundingBoxHoldsTheSurfaceAndItsEndWindows) {
+  std::mt19937 rng(20261203);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double window = 0.25;
+  for (const double m : {2.0, 4.0}) {
+    const SuperEllipse section(kA, kB, m);
+    for (int trial = 0; trial < 40; ++trial) {
+      const Vector3d xa(u(rng) * 1e-3, u(rng) * 1e-3, u(rng) * 1e-3);
+      const Vector3d xb = xa + 1.2e-3 * Vector3d(u(rng), u(rng), u(rng)).normalized();
+      const SuperEllipticalCylinder c(node(xa, random_rotation(rng).toRotationMatrix()),
+                                      node(xb, random_rotation(rng).toRotationMatrix()), section);
+      const Eigen::AlignedBox3d box = c.bounding_box(window);
+      const Eigen::AlignedBox3d ends = c.bounding_box(0.0);
+      Vector3d low = Vector3d::Constant(1e300), high = Vector3d::Constant(-1e300);
+      for (int i = 0; i <= 40; ++i)
+        for (int k = 0; k < 64; ++k) {
+          const double zeta = -1.0 - window + i * (2.0 + 2.0 * window) / 40;
+          const Vector3d x = c.point(zeta, k * 2 * kPi / 64);
+          EXPECT_TRUE(box.exteriorDistance(x) == 0.0) << "m " << m << " trial " << trial;
+          if (std::abs(zeta) <= 1.0) {
+            low = low.cwiseMin(x);
+            high = high.cwiseMax(x);
+          }
+        }
+      // Tight on the element: the sampled surface reaches the end boxes' faces to within the
+      // sampling's resolution (64 angles: 1 - cos(pi / 64) of a semi-axis).
+      EXPECT_LT((low - ends.min()).cwiseAbs().maxCoeff(), 2e-3 * kA) << trial;
+      EXPECT_LT((high - ends.max()).cwiseAbs().maxCoeff(), 2e-3 * kA) << trial;
+    }
+  }
+  // A yarn along x, its section flat in the fabric plane (axis 1 along y): height 2 b.
+  const Matrix3d q = frame(Vector3d::UnitY(), Vector3d::UnitX());
+  const SuperEllipticalCylinder flat(node(Vector3d::Zero(), q), node(Vector3d(1e-3, 0, 0), q),
+                                     SuperEllipse(kA, kB));
+  const Eigen::AlignedBox3d box = flat.bounding_box(0.0);
+  EXPECT_NEAR(box.sizes().z(), 2 * kB, 1e-15);
+  EXPECT_NEAR(box.sizes().y(), 2 * kA, 1e-15);
+  EXPECT_NEAR(box.sizes().x(), 1e-3, 1e-15);
+  EXPECT_NEAR(flat.bounding_box(0.25).sizes().x(), 1.25e-3, 1e-15);
+}
+
 // ---- Crossing ellipses with closed-form answers -------------------------------------------------
 
 /// A along x with semi-axis a along y (flat side up), B along y above it with semi-axis a
