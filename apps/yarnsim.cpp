@@ -73,10 +73,11 @@ int main(int argc, char** argv) {
                   "Output folder (default: results/<deck name> in the current folder)");
   run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   run->add_option("--linear-solver", solver,
-                  "Sparse direct solver: auto (default: lu where the tangent is not symmetric: "
-                  "applied moments, friction or surface contact; ldlt otherwise), lu (UMFPACK) "
-                  "or ldlt (symmetric part)")
-      ->check(CLI::IsMember({"auto", "lu", "ldlt"}));
+                  "Linear solver: auto (default: lu with applied moments or friction, ldlt-gmres "
+                  "with surface contact, ldlt otherwise), lu (UMFPACK), ldlt (the symmetric "
+                  "part) or ldlt-gmres (the full tangent by GMRES on the symmetric part's LDL^T, "
+                  "lu where that does not converge)")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
   run->add_flag("--timings", timings,
                 "At the end, the wall time of each stage of the Newton iterations (broad and "
@@ -106,9 +107,8 @@ int main(int argc, char** argv) {
   study->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   study
       ->add_option("--linear-solver", solver,
-                   "Sparse direct solver: auto (default: ldlt unless the model has applied "
-                   "moments), lu (UMFPACK) or ldlt (symmetric part)")
-      ->check(CLI::IsMember({"auto", "lu", "ldlt"}));
+                   "Linear solver: auto, lu, ldlt or ldlt-gmres, as for 'run'")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres"}));
   study->add_flag("--quiet,-q", quiet, "No progress line");
 
   std::string check_deck;

@@ -4,6 +4,7 @@
 #include "engine/contact/spline_contact_set.hpp" // make_interface_law
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
@@ -60,6 +61,8 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
       }
     broadphase::CandidateSearchOptions options;
     options.margin = margin;
+    if (const char* v = std::getenv("YS_MARGIN"))
+      options.margin = std::atof(v);
     options.same_curve_skip = 1;
     options.self_contact = false;
     d->search = std::make_unique<broadphase::CandidateSearch>(

@@ -18,15 +18,19 @@ class LinearSolverError : public std::runtime_error {
 };
 
 enum class LinearSolverKind {
-  /// LDLTSymmetric unless the model has applied moments or surface contact (their tangents
-  /// are far from symmetric), then LU: see docs/performance.md for the figures behind the
-  /// choice.
+  /// LU where the model has applied moments or friction (their tangents are far from
+  /// symmetric), LDLTGmres where it has surface contact, LDLTSymmetric otherwise: see
+  /// docs/performance.md for the figures behind the choice.
   Auto,
   LU,            ///< LU of the full (non-symmetric) tangent, UMFPACK (SuiteSparse)
   LDLTSymmetric, ///< LDL^T of the symmetric part (A + A^T) / 2, Eigen SimplicialLDLT + METIS
   /// Supernodal LL^T of the symmetric part, CHOLMOD + METIS; an iteration whose tangent is not
   /// positive definite falls back to LDLTSymmetric.
-  Cholmod
+  Cholmod,
+  /// The full tangent by GMRES preconditioned with the LDL^T of its symmetric part, to a
+  /// relative residual of 1e-10; LU where that does not converge in 20 iterations, and for the
+  /// rest of that Newton attempt.
+  LDLTGmres
 };
 
 class LinearSolver {
@@ -38,11 +42,15 @@ public:
   virtual void factorize(const SparseMatrix& A) = 0;
   /// x = A^-1 b with the last factorisation.
   virtual Eigen::VectorXd solve(const Eigen::VectorXd& b) = 0;
+  /// A new Newton attempt starts: a solver that keeps a factorisation across iterations makes
+  /// the next one afresh.
+  virtual void start_attempt() {}
   virtual std::string name() const = 0;
 };
 
 std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind);
-/// "auto", "lu", "ldlt" or "cholmod". Throws std::invalid_argument for any other name.
+/// "auto", "lu", "ldlt", "ldlt-gmres" or "cholmod". Throws std::invalid_argument for any other
+/// name.
 LinearSolverKind linear_solver_kind_from(const std::string& name);
 
 } // namespace yarnsim

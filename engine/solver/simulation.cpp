@@ -71,12 +71,17 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   if (kind == LinearSolverKind::Auto) {
     const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
                                      [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
-    // Surface contact near a node between elements carries a share of the force whose
-    // derivative makes the tangent non-symmetric (contact::SurfaceContactOptions::end_window);
-    // so does friction (contact/friction.hpp).
-    kind = moments || has_friction(model) || !model.surface_contacts.empty()
-               ? LinearSolverKind::LU
-               : LinearSolverKind::LDLTSymmetric;
+    // Friction (contact/friction.hpp) and applied moments make the tangent far from symmetric:
+    // LU. Surface contact near a node between elements carries a share of the force whose
+    // derivative makes it a little non-symmetric (contact::SurfaceContactOptions::end_window):
+    // GMRES on the symmetric part's LDL^T solves it, falling back to LU where the contact forces
+    // have made it too far from symmetric (docs/performance.md, "The surface contact at scale").
+    if (moments || has_friction(model))
+      kind = LinearSolverKind::LU;
+    else if (!model.surface_contacts.empty())
+      kind = LinearSolverKind::LDLTGmres;
+    else
+      kind = LinearSolverKind::LDLTSymmetric;
   }
   solver_ = make_linear_solver(kind);
   contact_ = ContactStage::of(model);
@@ -471,6 +476,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   state_.x = state_.x_n;
   state_.alpha.setZero();
   apply_prescribed(t_new);
+  solver_->start_attempt();
   if (contact_)
     contact_->set_time(t_new);
 

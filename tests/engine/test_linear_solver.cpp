@@ -1,0 +1,112 @@
+// The sparse solvers behind LinearSolver: each solves its system to round-off, and the GMRES
+// solver on the symmetric part's LDL^T gives the full non-symmetric system's solution whether
+// its Krylov iteration converges (a nearly symmetric matrix) or it falls back to the LU (a far
+// from symmetric matrix, a singular symmetric part).
+#include "engine/solver/linear_solver.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <vector>
+
+namespace yarnsim {
+namespace {
+
+/// A banded n x n matrix S + skew K (structurally symmetric): S symmetric positive definite
+/// (diagonally dominant), K antisymmetric with entries of size `skew` relative to S's.
+SparseMatrix banded(int n, double skew, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<Eigen::Triplet<double>> t;
+  for (int i = 0; i < n; ++i) {
+    t.emplace_back(i, i, 10.0 + u(rng));
+    for (int k = 1; k <= 3 && i + k < n; ++k) {
+      const double s = u(rng), a = skew * u(rng);
+      t.emplace_back(i, i + k, s + a);
+      t.emplace_back(i + k, i, s - a);
+    }
+  }
+  SparseMatrix A(n, n);
+  A.setFromTriplets(t.begin(), t.end());
+  return A;
+}
+
+double relative_residual(const SparseMatrix& A, const Eigen::VectorXd& x,
+                         const Eigen::VectorXd& b) {
+  return (b - A * x).norm() / b.norm();
+}
+
+Eigen::VectorXd solve_with(LinearSolverKind kind, const SparseMatrix& A, const Eigen::VectorXd& b) {
+  auto solver = make_linear_solver(kind);
+  solver->start_attempt();
+  solver->analyze(A);
+  solver->factorize(A);
+  return solver->solve(b);
+}
+
+TEST(LinearSolver, LUAndLDLTGmresSolveTheFullNonSymmetricSystem) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  // Nearly symmetric (GMRES converges in a few iterations) and far from it (skew entries ten
+  // times the symmetric ones: GMRES on the symmetric part's factor does not converge within its
+  // limit, and the LU solves it).
+  for (const double skew : {1e-3, 0.1, 10.0}) {
+    const SparseMatrix A = banded(400, skew, rng);
+    Eigen::VectorXd b(400);
+    for (int i = 0; i < 400; ++i)
+      b(i) = u(rng);
+    const Eigen::VectorXd lu = solve_with(LinearSolverKind::LU, A, b);
+    const Eigen::VectorXd gmres = solve_with(LinearSolverKind::LDLTGmres, A, b);
+    EXPECT_LT(relative_residual(A, lu, b), 1e-13) << skew;
+    EXPECT_LT(relative_residual(A, gmres, b), 1e-10) << skew;
+    EXPECT_LT((gmres - lu).norm(), 1e-9 * lu.norm()) << skew;
+    // The symmetric LDL^T solves the symmetric part, not A: with a skew part it misses A's
+    // solution by about the skew's share.
+    const Eigen::VectorXd ldlt = solve_with(LinearSolverKind::LDLTSymmetric, A, b);
+    EXPECT_GT((ldlt - lu).norm(), 1e-2 * skew * lu.norm()) << skew;
+  }
+}
+
+TEST(LinearSolver, LDLTGmresFallsBackToTheLUWhereTheSymmetricPartIsSingular) {
+  // A rotation block [[0, 1], [-1, 0]] has a zero symmetric part: its LDL^T fails.
+  std::vector<Eigen::Triplet<double>> t = {{0, 1, 1.0}, {1, 0, -1.0}, {2, 2, 3.0}};
+  SparseMatrix A(3, 3);
+  A.setFromTriplets(t.begin(), t.end());
+  const Eigen::Vector3d b(1.0, 2.0, 3.0);
+  const Eigen::VectorXd x = solve_with(LinearSolverKind::LDLTGmres, A, b);
+  EXPECT_LT((x - Eigen::Vector3d(-2.0, 1.0, 1.0)).norm(), 1e-15);
+}
+
+TEST(LinearSolver, LDLTGmresKeepsSolvingAcrossIterationsAndAttempts) {
+  // Within an attempt a GMRES failure switches to the LU; the next attempt tries GMRES again.
+  // Either way every solve is the full system's.
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto solver = make_linear_solver(LinearSolverKind::LDLTGmres);
+  EXPECT_EQ(solver->name(), "ldlt-gmres");
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    solver->start_attempt();
+    for (const double skew : {1e-3, 10.0, 1e-3}) {
+      const SparseMatrix A = banded(200, skew, rng);
+      Eigen::VectorXd b(200);
+      for (int i = 0; i < 200; ++i)
+        b(i) = u(rng);
+      solver->analyze(A);
+      solver->factorize(A);
+      EXPECT_LT(relative_residual(A, solver->solve(b), b), 1e-10) << attempt << " " << skew;
+    }
+  }
+}
+
+TEST(LinearSolver, NamesAreParsedAndUnknownOnesListTheChoices) {
+  EXPECT_EQ(linear_solver_kind_from("ldlt-gmres"), LinearSolverKind::LDLTGmres);
+  EXPECT_EQ(linear_solver_kind_from("lu"), LinearSolverKind::LU);
+  try {
+    linear_solver_kind_from("gmres");
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'ldlt-gmres'"), std::string::npos) << e.what();
+  }
+}
+
+} // namespace
+} // namespace yarnsim
