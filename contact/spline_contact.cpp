@@ -402,6 +402,24 @@ struct LocalProjection {
 
 LocalProjection project(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
                         const SegmentBasis& bb, const ProjectionStart& start,
+                        const SplineContactOptions& opt);
+
+/// Whether a cold start (from the geometry alone) converges to the point (ua, ub) that a warm
+/// start reached after moving more than `jump_fraction`: then the move is the contact point's
+/// own, fast but continuous (a crossing at a fabric's edge slides half a segment along the weft
+/// in one increment as the weft's overhang straightens), and the point stands; otherwise the
+/// warm start has left the contact it followed for another critical point (Jumped).
+bool cold_start_agrees(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
+                       const SegmentBasis& bb, double ua, double ub,
+                       const SplineContactOptions& opt) {
+  const LocalProjection cold = project(xa, ba, xb, bb, ProjectionStart{}, opt);
+  const double tolerance = 1e-6; // local segment coordinates
+  return cold.result.status == ProjectionStatus::Converged && std::abs(cold.ua - ua) < tolerance &&
+         std::abs(cold.ub - ub) < tolerance;
+}
+
+LocalProjection project(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb,
+                        const SegmentBasis& bb, const ProjectionStart& start,
                         const SplineContactOptions& opt) {
   LocalProjection out;
   ProjectionResult& res = out.result;
@@ -443,8 +461,10 @@ LocalProjection project(const Matrix3d& xa, const SegmentBasis& ba, const Matrix
     res.status = s.left ? ProjectionStatus::OutOfRange : ProjectionStatus::NotConverged;
   } else if (!owned) {
     res.status = ProjectionStatus::OutOfRange;
-  } else if (start.warm && (std::abs(s.ua - ua0) > opt.jump_fraction ||
-                            std::abs(s.ub - ub0) > opt.jump_fraction)) {
+  } else if (start.warm &&
+             (std::abs(s.ua - ua0) > opt.jump_fraction ||
+              std::abs(s.ub - ub0) > opt.jump_fraction) &&
+             !cold_start_agrees(xa, ba, xb, bb, s.ua, s.ub, opt)) {
     res.status = ProjectionStatus::Jumped;
   } else {
     res.status = ProjectionStatus::Converged;

@@ -16,7 +16,9 @@ enum class ProjectionStatus {
   NotConverged, ///< no minimum within the iteration limit, or the centre lines intersect
                 ///< (no normal): the caller vetoes the step
   Jumped,       ///< converged in range, but the point moved more than `jump_fraction` of a
-                ///< segment from the warm start: the caller vetoes the step
+                ///< segment from the warm start to a point a cold start does not find (the
+                ///< spline contact; the surface contact's caller makes that test): the caller
+                ///< vetoes the step
 };
 
 /// Whether a full Newton step of `length` ends a projection's iteration (spline and surface
@@ -46,7 +48,9 @@ struct SplineContactOptions {
   double step_tolerance = 1e-12;
   /// Segments whose chords make an angle with sine below this are treated as parallel.
   double parallel_sine = 1e-2;
-  double jump_fraction = 0.5; ///< Jumped above this move from a warm start (segments)
+  /// Jumped above this move from a warm start (segments), unless a cold start finds the same
+  /// point.
+  double jump_fraction = 0.5;
   /// Iterates farther than this beyond a segment's range end the solve as OutOfRange (segments).
   double max_extension = 1.0;
   bool compute_tangent = true; ///< false: residual only (explicit dynamics)

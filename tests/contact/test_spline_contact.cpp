@@ -650,7 +650,7 @@ TEST(SplineContact, SeparatedPairIsInactiveWithZeroResidual) {
   EXPECT_EQ(r.tangent.norm(), 0.0);
 }
 
-TEST(SplineContact, StatusReportsOutOfRangeJumpAndFailure) {
+TEST(SplineContact, StatusReportsOutOfRangeSlideAndFailure) {
   std::mt19937 rng(9);
   const LinearPenalty law(kEps);
   Pair p;
@@ -667,14 +667,42 @@ TEST(SplineContact, StatusReportsOutOfRangeJumpAndFailure) {
     p = random_crossing(rng);
   } while (!place(p, 0.4, 0.0, 5e-6));
   const double far_start = p.ba->global(-0.3);
-  const SplineContactResult jumped = solve(p, law, {far_start, p.bb->global(0.0), true});
-  EXPECT_EQ(jumped.status, ProjectionStatus::Jumped);
-  EXPECT_TRUE(jumped.active); // the caller decides; the values are still right
+  // A warm start 0.7 of a segment from the only contact point: the move exceeds jump_fraction,
+  // but a cold start finds the same point, so it is the contact's own (a fast slide) and stands.
+  const SplineContactResult slid = solve(p, law, {far_start, p.bb->global(0.0), true});
+  EXPECT_EQ(slid.status, ProjectionStatus::Converged);
+  EXPECT_TRUE(slid.active);
+  EXPECT_NEAR(p.ba->local(slid.xi_A), 0.4, 1e-9);
   SplineContactOptions one;
   one.max_iterations = 1;
   const SplineContactResult failed = solve(p, law, {far_start, p.bb->global(-0.4), true}, one);
   EXPECT_EQ(failed.status, ProjectionStatus::NotConverged);
   EXPECT_FALSE(failed.active);
+}
+
+// A with its centre line a cup, z = H (2 u^2 - 1/2) over x = L u, and B a straight line along y
+// above its bottom, a little to the left of it: the distance has two minima, u = -0.31 (the
+// nearer, where a cold start goes) and u = +0.32. A warm start beyond the right one converges to
+// it, more than jump_fraction from where it started, at a point a cold start does not find: the
+// projection left the contact it followed (Jumped). The same pair from the left minimum's
+// neighbourhood follows it.
+TEST(SplineContact, WarmStartThatReachesAnotherCriticalPointJumps) {
+  const LinearPenalty law(kEps);
+  const double L = 1e-3, H = 1e-3, z0 = 4.5e-4 - H / 2, x0 = -2e-5;
+  Pair p;
+  p.ba = &curve5().segment(1);
+  p.bb = &curve5().segment(1);
+  p.xa << -L, 0, L, 0, 0, 0, H, -H, H;
+  p.xb << x0, x0, x0, -L, 0, L, z0, z0, z0;
+  const SplineContactResult cold = solve(p, law);
+  ASSERT_EQ(cold.status, ProjectionStatus::Converged);
+  EXPECT_NEAR(p.ba->local(cold.xi_A), -0.31, 0.02);
+  const SplineContactResult far = solve(p, law, {p.ba->global(1.0), p.bb->global(0.0), true});
+  EXPECT_NEAR(p.ba->local(far.xi_A), 0.32, 0.02);
+  EXPECT_EQ(far.status, ProjectionStatus::Jumped);
+  const SplineContactResult near = solve(p, law, {p.ba->global(-0.2), p.bb->global(0.0), true});
+  EXPECT_EQ(near.status, ProjectionStatus::Converged);
+  EXPECT_NEAR(p.ba->local(near.xi_A), p.ba->local(cold.xi_A), 1e-9);
 }
 
 TEST(SplineContact, ResidualOnlyOptionSkipsTheTangent) {
