@@ -10,7 +10,10 @@
 #include <fmt/format.h>
 #include <limits>
 #include <numbers>
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
 #include <tbb/flow_graph.h>
+#include <tbb/parallel_for.h>
 
 namespace yarnsim {
 
@@ -345,29 +348,43 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
     ref_force = std::max(ref_force, contact_->max_force());
   const auto t0 = std::chrono::steady_clock::now();
 
-  // Inertia (lumped) and mass-proportional damping.
+  // Inertia (lumped) and mass-proportional damping: each node writes its own residual entries
+  // and diagonal blocks, so the nodes run in parallel; the largest force and moment are maxima,
+  // the same in any order.
   if (dynamic) {
     const double cm = step.rayleigh_mass;
-    for (int i = 0; i < n; ++i) {
-      const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
-      const Eigen::Vector3d a = nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
-      const Eigen::Vector3d v = nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
-      const Eigen::Vector3d f = mass_(i) * (a + cm * v);
-      residual.segment<3>(6 * i) += f;
-      Eigen::Vector3d r;
-      Eigen::Matrix3d K;
-      rotary_inertia(rotary_inertia_.col(i), cm, nm,
-                     {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)}, state_.alpha.col(i), r,
-                     K);
-      residual.segment<3>(6 * i + 3) += r;
-      if (want_tangent) {
-        assembler_->add_node_block(i, 0, 0,
-                                   (mass_(i) * (nm.a1 + cm * nm.a4)) * Eigen::Matrix3d::Identity());
-        assembler_->add_node_block(i, 3, 3, K);
-      }
-      ref_force = std::max(ref_force, f.norm());
-      ref_moment = std::max(ref_moment, r.norm());
-    }
+    tbb::combinable<std::pair<double, double>> largest(
+        [] { return std::pair<double, double>(0.0, 0.0); });
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
+          std::pair<double, double>& local = largest.local();
+          for (int i = range.begin(); i != range.end(); ++i) {
+            const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
+            const Eigen::Vector3d a =
+                nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
+            const Eigen::Vector3d v =
+                nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
+            const Eigen::Vector3d f = mass_(i) * (a + cm * v);
+            residual.segment<3>(6 * i) += f;
+            Eigen::Vector3d r;
+            Eigen::Matrix3d K;
+            rotary_inertia(rotary_inertia_.col(i), cm, nm,
+                           {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)},
+                           state_.alpha.col(i), r, K);
+            residual.segment<3>(6 * i + 3) += r;
+            if (want_tangent) {
+              assembler_->add_node_block(
+                  i, 0, 0, (mass_(i) * (nm.a1 + cm * nm.a4)) * Eigen::Matrix3d::Identity());
+              assembler_->add_node_block(i, 3, 3, K);
+            }
+            local.first = std::max(local.first, f.norm());
+            local.second = std::max(local.second, r.norm());
+          }
+        });
+    largest.combine_each([&](const std::pair<double, double>& l) {
+      ref_force = std::max(ref_force, l.first);
+      ref_moment = std::max(ref_moment, l.second);
+    });
   }
 
   // External loads: dead forces and dead or follower moments.
