@@ -4,7 +4,6 @@
 #include "engine/contact/spline_contact_set.hpp" // make_interface_law
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
@@ -22,7 +21,7 @@ namespace yarnsim {
 struct SurfaceContactSet::Definition {
   std::vector<int> surface;  ///< per segment id
   std::vector<int> position; ///< per segment id: index of its element along the surface
-  /// Per segment id, zero: the boxes (section_box) hold the sections themselves.
+  /// Per segment id, zero: the boxes (SuperEllipticalCylinder::bounding_box) hold the sections.
   std::vector<double> radius;
   std::unique_ptr<broadphase::CandidateSearch> search;
   std::shared_ptr<const contact::InterfaceLaw> law;
@@ -54,15 +53,14 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
           info.push_back({s, static_cast<int>(k), group});
           // Default: the smaller semi-axis, the radius of a circle (as the spline contact's).
           // On the paper's fabric (a = 4 b) the larger one held 2 304 candidates for 138
-          // contacts and cost 2.6 times the wall time (docs/performance.md, "Contact").
+          // contacts and cost 1.4 times the wall time (docs/performance.md, "The surface
+          // contact at scale").
           if (def.margin <= 0)
             margin = std::max(margin, std::min(surface.a, surface.b));
         }
       }
     broadphase::CandidateSearchOptions options;
     options.margin = margin;
-    if (const char* v = std::getenv("YS_MARGIN"))
-      options.margin = std::atof(v);
     options.same_curve_skip = 1;
     options.self_contact = false;
     d->search = std::make_unique<broadphase::CandidateSearch>(
@@ -120,11 +118,11 @@ contact::SuperEllipticalCylinder SurfaceContactSet::cylinder(const Definition& d
 
 bool SurfaceContactSet::update_candidates(const State& state) {
   bool changed = work_.empty() && candidates_version_ == 0;
+  // The boxes hold the sections as they are oriented, and the end windows of the options
+  // project() uses.
+  const double window = contact::SurfaceContactOptions{}.end_window;
   for (auto& dp : definitions_) {
     Definition& d = *dp;
-    // The boxes hold the sections as they are oriented, and the end windows of the options
-    // project() uses.
-    const double window = contact::SurfaceContactOptions{}.end_window;
     for (std::size_t s = 0; s < d.surface.size(); ++s)
       d.boxes[s] = cylinder(d, static_cast<int>(s), state).bounding_box(window);
     changed = d.search->update(d.boxes, d.radius) || changed;

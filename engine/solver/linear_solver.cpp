@@ -208,39 +208,51 @@ private:
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, Eigen::NaturalOrdering<int>> ldlt_;
 };
 
-/// Right-preconditioned GMRES(m): x with ||b - op(x)|| <= tolerance ||b||, x = M^-1 V y; false
-/// when not reached in max_iterations (x then holds the last iterate).
+/// GMRES's Krylov basis and Hessenberg matrix, kept by its caller between solves so that a
+/// Newton iteration does not allocate them anew (n x (m + 1) doubles).
+struct GmresWorkspace {
+  Eigen::MatrixXd V, H;
+  Eigen::VectorXd cs, sn, g;
+};
+
+/// Right-preconditioned GMRES(m), not restarted (Saad, Iterative Methods for Sparse Linear
+/// Systems, 2nd ed., Algorithm 9.5; modified Gram-Schmidt, Givens rotations): x = M^-1 V y with
+/// ||b - op(x)|| <= tolerance ||b||, checked with op itself at the end; false when not reached
+/// in m = max_iterations. Serial and in a fixed order: the same on any thread count.
 template <class Op, class Precondition>
 bool gmres(const Op& op, const Precondition& precondition, const Eigen::VectorXd& b,
-           Eigen::VectorXd& x, double tolerance, int max_iterations, int* iterations = nullptr) {
+           Eigen::VectorXd& x, double tolerance, int max_iterations, GmresWorkspace& w) {
   const Eigen::Index n = b.size();
   const int m = max_iterations;
   const double b_norm = b.norm();
   x = Eigen::VectorXd::Zero(n);
-  if (iterations)
-    *iterations = 0;
   if (b_norm == 0)
     return true;
   if (!std::isfinite(b_norm))
     return false;
   const double target = tolerance * b_norm;
-  Eigen::MatrixXd V(n, m + 1);
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);
-  Eigen::VectorXd cs(m), sn(m), g = Eigen::VectorXd::Zero(m + 1);
+  Eigen::MatrixXd& V = w.V;
+  Eigen::MatrixXd& H = w.H;
+  V.resize(n, m + 1);
+  H.setZero(m + 1, m);
+  w.cs.resize(m);
+  w.sn.resize(m);
+  w.g.setZero(m + 1);
+  Eigen::VectorXd &cs = w.cs, &sn = w.sn, &g = w.g;
   g(0) = b_norm;
   V.col(0) = b / b_norm;
   int j = 0;
   bool done = false;
   while (j < m && !done) {
-    Eigen::VectorXd w = op(precondition(Eigen::VectorXd(V.col(j))));
+    Eigen::VectorXd v = op(precondition(Eigen::VectorXd(V.col(j))));
     for (int i = 0; i <= j; ++i) {
-      H(i, j) = w.dot(V.col(i));
-      w -= H(i, j) * V.col(i);
+      H(i, j) = v.dot(V.col(i));
+      v -= H(i, j) * V.col(i);
     }
-    H(j + 1, j) = w.norm();
-    const bool breakdown = !(H(j + 1, j) > 0);
+    H(j + 1, j) = v.norm();
+    const bool breakdown = !(H(j + 1, j) > 0); // the Krylov space holds the solution
     if (!breakdown)
-      V.col(j + 1) = w / H(j + 1, j);
+      V.col(j + 1) = v / H(j + 1, j);
     for (int i = 0; i < j; ++i) {
       const double t = cs(i) * H(i, j) + sn(i) * H(i + 1, j);
       H(i + 1, j) = -sn(i) * H(i, j) + cs(i) * H(i + 1, j);
@@ -260,8 +272,6 @@ bool gmres(const Op& op, const Precondition& precondition, const Eigen::VectorXd
   }
   const Eigen::VectorXd y = H.topLeftCorner(j, j).triangularView<Eigen::Upper>().solve(g.head(j));
   x = precondition(Eigen::VectorXd(V.leftCols(j) * y));
-  if (iterations)
-    *iterations = j;
   const Eigen::VectorXd r = b - op(x);
   return r.allFinite() && r.norm() <= target;
 }
@@ -303,7 +313,7 @@ public:
       Eigen::VectorXd x;
       if (gmres([&](const Eigen::VectorXd& v) -> Eigen::VectorXd { return A * v; },
                 [&](const Eigen::VectorXd& v) { return ldlt_.solve(v); }, b, x, kTolerance,
-                kMaxIterations))
+                kMaxIterations, workspace_))
         return x;
       lu_for_attempt_ = true;
       factorize_lu();
@@ -325,6 +335,7 @@ private:
 
   SymmetricLDLTSolver ldlt_;
   UmfpackSolver lu_;
+  GmresWorkspace workspace_;
   const SparseMatrix* A_ = nullptr; ///< the last factorised tangent (alive until its solve)
   bool lu_analysed_ = false;
   bool use_lu_ = false;         ///< this system: LU
