@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <initializer_list>
+#include <limits>
 
 // Notation (formulation.md §5). The kernel works in each segment's local variable
 // u = (xi - mid) / h (the range is u in [-1/2, 1/2]); every quantity below except the reported xi
@@ -61,6 +62,17 @@ void add_kron(Mat18& k, const Vec6& a, const Vec6& b, const Matrix3d& m, double 
       k.block<3, 3>(3 * i, 3 * j) += (s * a(i) * b(j)) * m;
     }
   }
+}
+
+/// Round-off level of a component r = g_u . g of Phi's gradient (m^2 per unit u): g = C_A - C_B
+/// is a difference of points of coordinates up to X = max |x| (metres), computed with basis
+/// values that sum to one, so it carries an error of a few eps X; g_u, from basis derivatives
+/// `dn`, one of eps X |dn|_1. The floor is 8 times the sum of the two products.
+double gradient_floor(const Matrix3d& xa, const Matrix3d& xb, const Vector3d& gu, const Vector3d& g,
+                      const Vector3d& dn) {
+  const double x = std::max(xa.cwiseAbs().maxCoeff(), xb.cwiseAbs().maxCoeff());
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  return 8 * eps * x * (4 * gu.norm() + dn.lpNorm<1>() * g.norm());
 }
 
 /// Phi and its derivatives in c = (u_A, u_B) at one point.
@@ -199,7 +211,14 @@ Solve newton_pair(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb
       step = -(vmax.dot(e.r) / modified(lmax)) * vmax - (vmin.dot(e.r) / modified(lmin)) * vmin;
     }
     double length = step.norm();
-    if (definite && newton_step_converges(length, previous, opt.step_tolerance)) {
+    // Converged also where the gradient is at its round-off level (gradient_floor): there no
+    // step can be trusted, and on an ill-conditioned pair (a yarn bent around another to nearly
+    // their distance, H's eigenvalues 1e-2 apart and less) the step it gives stays above the
+    // tolerance, the same length at every iteration.
+    const double floor_a = gradient_floor(xa, xb, e.ga, e.g, ba.first_local(ua));
+    const double floor_b = gradient_floor(xa, xb, e.gb, e.g, bb.first_local(ub));
+    if (definite && (newton_step_converges(length, previous, opt.step_tolerance) ||
+                     (std::abs(e.r(0)) <= floor_a && std::abs(e.r(1)) <= floor_b))) {
       s.converged = true;
       s.ua = ua + step(0);
       s.ub = ub + step(1);
@@ -263,7 +282,9 @@ Solve project_point(const Vector3d& p, const Matrix3d& x, const SegmentBasis& b,
     }
     const bool definite = h > kDefinite * scale;
     double step = -r / (definite ? h : kShift * scale + std::abs(h));
-    if (definite && newton_step_converges(std::abs(step), previous, opt.step_tolerance)) {
+    const Matrix3d px = Matrix3d::Constant(p.cwiseAbs().maxCoeff()); // p's scale, for the floor
+    if (definite && (newton_step_converges(std::abs(step), previous, opt.step_tolerance) ||
+                     std::abs(r) <= gradient_floor(x, px, c1, d, b.first_local(u)))) {
       s.converged = true;
       s.ua = u + step;
       return s;
