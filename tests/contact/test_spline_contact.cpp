@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <set>
 #include <utility>
@@ -469,6 +470,39 @@ TEST(SplineContact, CappedNewtonStepStopsAtTheFirstMinimumAlongIt) {
       -5.8296355756665038e-05, -0.00050917485735558284, -0.0010987707255799802,
       6.2323212024942233e-05, 0.00083298827565480996, 0.0013109752465506812;
   expect_cold_projection_finds_the_closest_points(pinned_pair(xa, xb));
+}
+
+TEST(SplineContact, IllConditionedWrapConvergesAtTheRoundOffLevel) {
+  // A yarn wound around a pin (the capstan of tests/engine/test_capstan.cpp, 4 pins): the yarn's
+  // segment lies in the plane normal to the pin's axis, at nearly constant distance from it, so
+  // Phi's Hessian has eigenvalues far apart (the distance varies little along the wrap), 5 cm
+  // from the origin. The Newton step stalled at 2e-12 segments, above the 1e-12 tolerance and
+  // the same at every iteration, until the 50 iterations were spent: NotConverged, a vetoed step
+  // (with OpenBLAS's AVX-512 kernels the capstan's pull stopped there). Phi's gradient is at its
+  // round-off level there: converged (out of this pair's range).
+  Matrix3d xa;
+  Matrix3d xb;
+  Matrix3d ca;
+  Matrix3d cb;
+  xa << -0.019132118854400273, -0.019149465607939141, -0.019166799231176115, 0.046302965105051545,
+      0.046295848045097385, 0.046288699065715214, 0, 0, 0;
+  xb << -0.019133788934822121, -0.019133788934822121, -0.019133788934822121, 0.046193052746031825,
+      0.046193052746031825, 0.046193052746031825, -0.00040000000000000002, -0.00020000000000000001,
+      0;
+  ca << 0.12500000000001066, -0.50000000000004263, 0.50000000000004263, 0.74999999999997868, 0,
+      -1.0000000000000853, 0.12500000000001066, 0.50000000000004263, 0.50000000000004263;
+  cb << 0.25, -1, 1, 0.625, 0.5, -1.5, 0.125, 0.5, 0.5;
+  const SegmentBasis ba(0.61628664495114005, 0.6169381107491857, false, ca);
+  const SegmentBasis bb(0, 0.33333333333333331, false, cb);
+  const ProjectionResult r = closest_point_projection(xa, ba, xb, bb, {}, {});
+  // The closest points lie beyond the pin segment's range: its neighbour holds them.
+  EXPECT_EQ(r.status, ProjectionStatus::OutOfRange) << to_string(r.status);
+  // They are a critical point of the distance (to 1e-6 of |g| |g_u|; a point off it is O(1)).
+  const double ua = ba.local(r.xi_A), ub = bb.local(r.xi_B);
+  const Eigen::Vector3d g = xa * ba.values_local(ua) - xb * bb.values_local(ub);
+  const Eigen::Vector3d ga = xa * ba.first_local(ua), gb = xb * bb.first_local(ub);
+  EXPECT_LT(std::abs(g.dot(ga)), 1e-6 * g.norm() * ga.norm());
+  EXPECT_LT(std::abs(g.dot(gb)), 1e-6 * g.norm() * gb.norm());
 }
 
 TEST(SplineContact, WarmStartConvergesInFewIterations) {
