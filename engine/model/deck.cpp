@@ -1558,12 +1558,6 @@ private:
           }
         if (!spline_only)
           read_contact_friction(t, c.law, c.friction);
-        if (c.friction.active() && explicit_step_ != nullptr)
-          t.error(t.present("friction") ? "friction" : "static_friction",
-                  fmt::format("friction is not available on the explicit path in this version "
-                              "({} is explicit): its energy balance does not close "
-                              "(docs/formulation.md, \"Friction\")",
-                              explicit_step_->path()));
         c.margin = t.number("margin").value_or(0);
         model_.surface_contacts.push_back(std::move(c));
         continue;
@@ -1573,12 +1567,6 @@ private:
       contact_groups(t, {spline_names_, "spline", "[[splines]]"}, c.group_a, c.group_b);
       contact_law(t, c.law);
       read_contact_friction(t, c.law, c.friction);
-      if (c.friction.active() && explicit_step_ != nullptr)
-        t.error(t.present("friction") ? "friction" : "static_friction",
-                fmt::format("friction is not available on the explicit path in this version ({} "
-                            "is explicit): its energy balance does not close (docs/formulation.md, "
-                            "\"Friction\")",
-                            explicit_step_->path()));
       contact_damping_steps(t, c.law.damping, c.friction.tangential_damping);
       c.self_contact = t.boolean("self_contact").value_or(false);
       c.margin = t.number("margin").value_or(0);

@@ -34,6 +34,7 @@
 
 #include "engine/solver/simulation.hpp"
 
+#include "contact/torsional_friction.hpp"
 #include "engine/math/rotation.hpp"
 #include "engine/solver/checkpoint.hpp"
 
@@ -227,6 +228,10 @@ private:
   [[noreturn]] void fail(const std::string& why) const;
   /// Stops the run when the energy grows beyond what the loads and prescribed motions supplied.
   void check_energy(double energy, const char* what);
+  /// Fails the run when the energy balance error exceeds kBalanceTolerance of the energy
+  /// supplied (or dissipated, if more).
+  void check_balance() const;
+  static constexpr double kBalanceTolerance = 0.05;
   /// Adds node_work_ to kick_work_ in node order.
   void collect_kick_work();
 
@@ -337,10 +342,17 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
       }
       return m;
     };
-    auto consider = [&](const std::string& name, const InterfaceLawParameters& law, double m_a,
-                        double m_b, double r_min) {
+    // Friction adds the tangential penalty in the contact plane (the point's stiffness is
+    // k_n n n^T + eps_t (I - n n^T), of largest eigenvalue max(k_n, eps_t)) and the torsional
+    // penalty k_r on the crossing angle, which a control point turns by up to |dx| / h for a
+    // segment of chord h: k_r / h^2 more (Weyl's inequality again).
+    auto consider = [&](const std::string& name, const InterfaceLawParameters& law,
+                        const FrictionParameters& friction, double m_a, double m_b, double r_min,
+                        double torsion_per_m2) {
       const double p = std::max(2 * sim.contact_->max_penetration(), 0.1 * r_min);
-      const double k = law.penalty * law.exponent * std::pow(p, law.exponent - 1);
+      double k = law.penalty * law.exponent * std::pow(p, law.exponent - 1);
+      if (friction.active())
+        k = std::max(k, friction.tangential_penalty) + torsion_per_m2;
       const double w2 = k * (1 / m_a + 1 / m_b);
       if (w2 > w2_contact) {
         w2_contact = w2;
@@ -355,7 +367,27 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
         m_a = m_b = std::min(m_a, m_b);
       if (def.radius > 0) // the definition's radius stands for its splines'
         r_min = def.radius;
-      consider(def.name, def.law, m_a, m_b, r_min);
+      double torsion = 0; // k_r / h^2 over the shortest segment chord h, N/m
+      if (def.friction.active() && def.friction.torsional) {
+        double h = std::numeric_limits<double>::infinity(), w = 0;
+        for (const std::vector<int>* group : {&def.group_a, &def.group_b})
+          for (int c : *group) {
+            const Spline& spline = model.splines[c];
+            w = std::max(w, spline.width > 0 ? spline.width : 2 * spline.radius);
+            for (std::size_t k = 1; k < spline.nodes.size(); ++k)
+              h = std::min(
+                  h, (model.nodes[spline.nodes[k]] - model.nodes[spline.nodes[k - 1]]).norm());
+          }
+        // The defaults of spline_contact_set.cpp: rho from the widest pair, k_r = eps_t rho^2.
+        const double rho = def.friction.torsional_radius > 0 ? def.friction.torsional_radius
+                                                             : contact::footprint_radius(w, w);
+        const double k_r = def.friction.torsional_penalty > 0
+                               ? def.friction.torsional_penalty
+                               : def.friction.tangential_penalty * rho * rho;
+        if (h > 0 && std::isfinite(h))
+          torsion = k_r / (h * h);
+      }
+      consider(def.name, def.law, def.friction, m_a, m_b, r_min, torsion);
     }
     // Surfaces: the contact force also acts at up to the section's reach from the axis, which
     // twists the end nodes about the yarn axis (rotary inertia J_3 = rho (I1 + I2) per length,
@@ -381,7 +413,8 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
             }
         }
       if (flexibility[0] > 0 && flexibility[1] > 0)
-        consider(def.name, def.law, 1 / flexibility[0], 1 / flexibility[1], r_min);
+        consider(def.name, def.law, def.friction, 1 / flexibility[0], 1 / flexibility[1], r_min,
+                 0.0);
     }
   }
 
@@ -518,6 +551,27 @@ void CentralDifference::check_energy(double energy, const char* what) {
     fail(fmt::format("the {} energy grew without bound ({:.4g} J against at most {:.4g} J supplied "
                      "by the loads and prescribed motions): the integration is unstable",
                      what, energy, supplied_max_));
+}
+
+void CentralDifference::check_balance() const {
+  // The balance error (energy held and dissipated, less the work put in) of a stable run with
+  // forces that are potential or dissipative is the integrator's, a small fraction of the work
+  // (docs/verification.md). Forces that are neither can feed a mode: the penalty friction's point
+  // forces on a fabric (docs/formulation.md, "Friction on the explicit path") rang in stick-slip
+  // while their slips "dissipated" more than the loads supplied. Such a run is stopped, not
+  // carried on with an energy it invented.
+  const EnergyBalance e = sim_.energy_balance();
+  const double supplied = std::max(supplied_max_, e.friction + e.damping);
+  if (std::abs(e.error) > kBalanceTolerance * supplied + energy_floor_)
+    fail(fmt::format("the energy balance is off by {:.4g} J, {:.3g} % of the {:.4g} J supplied "
+                     "(kinetic {:.4g} J, strain {:.4g} J, contact {:.4g} J, dissipated by friction "
+                     "{:.4g} J and by damping {:.4g} J): forces that neither store nor dissipate "
+                     "energy are driving the motion{}",
+                     e.error, 100 * std::abs(e.error) / supplied, supplied, e.kinetic, e.internal,
+                     e.contact, e.friction, e.damping,
+                     e.friction > 0 ? "; with friction, see docs/formulation.md, \"Friction on "
+                                      "the explicit path\" (a lower tangential_penalty)"
+                                    : ""));
 }
 
 void CentralDifference::evaluate_forces(double t, double h) {
@@ -799,6 +853,7 @@ void CentralDifference::run(SimulationObserver* observer) {
                          status_.stable_dt, dt_min_));
       h_target_ = std::min(dt, status_.stable_dt);
       check_energy(sim_.kinetic_energy() + sim_.strain_energy() + sim_.contact_energy(), "total");
+      check_balance();
     }
     // Land exactly on the end time; avoid a sliver of a last increment.
     double h = std::min(h_target_, step_.end_time - time_);

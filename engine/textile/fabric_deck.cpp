@@ -412,7 +412,6 @@ public:
                                        "this version)");
     if (contact) {
       read_contact_friction(*contact, law, friction);
-      const char* key = contact->present("friction") ? "friction" : "static_friction";
       if (formulation == ContactFormulation::Surface)
         for (const char* spline_only :
              {"tangential_damping", "torsional_friction", "torsional_radius", "torsional_penalty"})
@@ -422,11 +421,6 @@ public:
                                        "friction is pointwise Coulomb friction alone in this "
                                        "version)",
                                        spline_only));
-      if (friction.active() && loading && loading->type == StepType::Explicit)
-        contact->error(key, fmt::format("friction is not available on the explicit path in this "
-                                        "version ({} type = \"explicit\"): its energy balance "
-                                        "does not close (docs/formulation.md, \"Friction\")",
-                                        block));
       // Contact damping acts through the velocities of implicit dynamic steps.
       for (const auto& [damping, value] : {std::pair<const char*, double>{"damping", law.damping},
                                            {"tangential_damping", friction.tangential_damping}}) {

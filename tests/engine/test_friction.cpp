@@ -310,5 +310,74 @@ TEST(Friction, NormalDampingAddsCTimesThePenetrationRateOnDynamicSteps) {
   EXPECT_GT(rec.damping, 0.2 * rec.total); // the damping term counts
 }
 
+/// The drag on the explicit path: the same rail and slider with mass (rho = 1000 kg/m^3), pressed
+/// by N over t = 0 ... 0.5 s and held (undamped: the normal force rings about N), then dragged
+/// from t = 1 s at 5 mm/s. In slip the friction force is mu f_n at every increment (the return
+/// mapping, exactly) and the drag force is the friction force, and the energy balance
+/// closes with the dissipation counted: the work of the loads and the drag equals the kinetic,
+/// strain and contact energies plus what damping and friction dissipated.
+TEST(Friction, ExplicitDragSlipsAtMuFnAndItsEnergyBalanceHoldsTheDissipation) {
+  const double mu = 0.3, t_end = 2.0, v = 5e-3;
+  const TimeTable drag{{0.0, 1.0, t_end}, {0.0, 0.0, v * (t_end - 1.0)}};
+  Drag d = drag_model(mu, mu, drag, t_end, 1.0);
+  const double rho = 1000, A = std::numbers::pi * kRadius * kRadius;
+  const double I = std::numbers::pi * std::pow(kRadius, 4) / 4;
+  for (Section& s : d.model.sections) {
+    s.rhoA = rho * A;
+    s.rhoJ = Eigen::Vector3d(rho * I, rho * I, 2 * rho * I);
+  }
+  d.model.loads[0].factor = TimeTable{{0.0, 0.5, t_end}, {0.0, 1.0, 1.0}};
+  SolutionStep s;
+  s.type = StepType::Explicit;
+  s.end_time = t_end;
+  s.mass_scaling_dt = s.dt_initial = s.dt_max = 1e-5;
+  s.dt_min = 1e-7;
+  s.output_every = 500;
+  d.model.steps = {s};
+  Simulation sim(d.model);
+  struct Explicit final : SimulationObserver {
+    const Drag& d;
+    double mu;
+    int slipping = 0;
+    double worst_cone = 0, worst_balance = 0, work = 0, friction = 0, worst_drag = 0;
+    double worst_bounce = 0;
+    Explicit(const Drag& drag, double m) : d(drag), mu(m) {}
+    void on_increment(const Simulation& s, const IncrementReport& r) override {
+      const ContactSummary c = s.contact()->summary();
+      const EnergyBalance e = s.energy_balance();
+      worst_balance = std::max(worst_balance, std::abs(e.error));
+      work = e.external_work + e.prescribed_work;
+      friction = e.friction;
+      if (r.time > 1.0 && c.slip == 1) {
+        ++slipping;
+        worst_cone = std::max(worst_cone, std::abs(c.tangential_force - mu * c.total_force));
+      }
+      if (r.time > 1.5 && r.time < 1.9) { // in slip, away from the drag's start and end
+        double rx = 0;
+        for (int node : d.slider)
+          rx += s.reactions()(0, node);
+        worst_drag = std::max(worst_drag, std::abs(rx - mu * c.total_force));
+        worst_bounce = std::max(worst_bounce, std::abs(rx - mu * kNormal));
+      }
+    }
+  } rec(d, mu);
+  sim.run(&rec);
+  std::printf(
+      "explicit drag: %ld increments, %d samples in slip, |f_t - mu f_n| <= %.3e N, |drag - "
+      "mu f_n| <= %.3e N, |drag - mu N| <= %.3e N (mu N = %.6g N); work %.6e J, friction "
+      "dissipated %.6e J, largest "
+      "balance error %.3e J\n",
+      sim.explicit_status().increments, rec.slipping, rec.worst_cone, rec.worst_drag,
+      rec.worst_bounce, mu * kNormal, rec.work, rec.friction, rec.worst_balance);
+  EXPECT_GT(rec.slipping, 15);
+  EXPECT_LT(rec.worst_cone, 1e-10 * mu * kNormal);
+  EXPECT_LT(rec.worst_drag, 1e-9 * mu * kNormal);
+  // The press is not damped: f_n rings about N by a fraction of a per cent.
+  EXPECT_LT(rec.worst_bounce, 1e-2 * mu * kNormal);
+  // Dragging 5 mm at mu N dissipates about 3 mJ.
+  EXPECT_NEAR(rec.friction, mu * kNormal * v * (t_end - 1.0), 0.02 * mu * kNormal * v);
+  EXPECT_LT(rec.worst_balance, 1e-3 * rec.friction);
+}
+
 } // namespace
 } // namespace yarnsim
