@@ -5,7 +5,7 @@
 // Simo and Vu-Quoc's material form on rotations.
 
 #include "engine/assembly/assembler.hpp"
-#include "engine/contact/contact_set.hpp"
+#include "engine/contact/contact_stage.hpp"
 #include "engine/model/model.hpp"
 #include "engine/solver/linear_solver.hpp"
 #include "engine/state/state.hpp"

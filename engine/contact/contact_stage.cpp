@@ -1,4 +1,4 @@
-#include "engine/contact/contact_set.hpp"
+#include "engine/contact/contact_stage.hpp"
 
 #include "engine/contact/spline_contact_set.hpp"
 #include "engine/contact/surface_contact_set.hpp"

@@ -1,0 +1,62 @@
+#pragma once
+// The contact stage of a Newton iteration over all of a model's contact formulations: the
+// formulations' sets (contact_set.hpp, spline_contact_set.hpp, surface_contact_set.hpp) run in a
+// fixed order, so results do not depend on scheduling. It sits above the sets it builds.
+#include "engine/contact/contact_set.hpp"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace yarnsim {
+
+class SplineContactSet;
+class SurfaceContactSet;
+
+/// All contact sets of a model: spline contacts first, then surface contacts. Each call runs the
+/// sets in that order, so results do not depend on scheduling.
+class ContactStage {
+public:
+  /// Null when the model has no contact definitions.
+  static std::unique_ptr<ContactStage> of(const Model& model);
+
+  bool update_candidates(const State& state);
+  /// ContactSet::set_time of every set: call before projecting the configuration of time t.
+  void set_time(double t);
+  std::string project(const State& state, bool want_tangent, const ContactRates* rates = nullptr);
+  /// Whether some definition damps (normal or tangential damping): its project() then wants
+  /// ContactRates on dynamic steps.
+  bool damped() const;
+  /// Broad and narrow phase; returns as project().
+  std::string evaluate(const State& state, bool want_tangent);
+  int candidates_version() const;
+  std::vector<ContactCoupling> couplings() const;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
+  void commit();
+
+  /// Figures of the last evaluation, summed (counts, forces, energies) or extreme (penetration,
+  /// force, gap) over the sets.
+  ContactSummary summary() const;
+  int candidates() const { return summary().candidates; }
+  int active() const { return summary().active; }
+  double max_penetration() const { return summary().max_penetration; }
+  double max_force() const { return summary().max_force; }
+  double potential() const { return summary().potential; }
+  double min_gap() const { return summary().min_gap; }
+  double total_force() const { return summary().total_force; }
+  std::vector<ContactPoint> points() const;
+  /// "spline", "surface" or "spline and surface".
+  std::string formulations() const;
+  /// The spline contact set, or null (checkpoints save and restore it).
+  SplineContactSet* spline();
+  const SplineContactSet* spline() const;
+  /// The surface contact set, or null (checkpoints save and restore it).
+  SurfaceContactSet* surface();
+  const SurfaceContactSet* surface() const;
+
+private:
+  std::vector<std::unique_ptr<ContactSet>> sets_;
+  std::vector<std::string> names_;
+};
+
+} // namespace yarnsim
