@@ -90,9 +90,15 @@ struct SurfaceFrictionHistory {
   double zeta_B = 0.0;  ///< the same on B
   double theta_B = 0.0;
   bool stuck = true; ///< stuck in the last committed state: mu_s applies, else mu_k
+  /// Torsional friction (surface_torsional_friction.hpp): the anchor crossing angle, rad, and
+  /// whether the crossing's twist stuck in the last committed state. Set by the caller where
+  /// torsional friction applies (surface_crossing_angle at first touch).
+  double twist = 0.0;
+  bool twist_stuck = true;
 };
 
-/// The history of a contact point that has just closed: anchored where it touched, stuck.
+/// The history of a contact point that has just closed: anchored where it touched, stuck (the
+/// twist anchor, where torsional friction applies, is set by the caller: surface_crossing_angle).
 inline SurfaceFrictionHistory first_touch(const SurfaceContactResult& contact) {
   return {contact.zeta_A, contact.theta_A, contact.zeta_B, contact.theta_B, true};
 }

@@ -1545,17 +1545,14 @@ private:
              {"line_contact", "line_angle", "point_angle", "line_penalty", "gauss_points"})
           if (t.present(key))
             t.error(key, fmt::format("'{}' applies only to type = \"spline\"", key));
-        // Pointwise friction; no tangential damping and no torsional friction on this contact.
+        // Pointwise and torsional friction; no tangential damping on this contact.
         bool spline_only = false;
-        for (const char* key :
-             {"tangential_damping", "torsional_friction", "torsional_radius", "torsional_penalty"})
-          if (t.present(key)) {
-            t.error(key, fmt::format("'{}' applies only to type = \"spline\" (surface contact "
-                                     "friction is pointwise Coulomb friction alone in this "
-                                     "version)",
-                                     key));
-            spline_only = true;
-          }
+        if (t.present("tangential_damping")) {
+          t.error("tangential_damping",
+                  "'tangential_damping' applies only to type = \"spline\" (surface contact "
+                  "friction has no tangential damping in this version)");
+          spline_only = true;
+        }
         if (!spline_only)
           read_contact_friction(t, c.law, c.friction);
         if (c.friction.active() && explicit_step_ != nullptr)

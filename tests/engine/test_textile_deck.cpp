@@ -130,21 +130,28 @@ TEST(FabricDeck, ContactFrictionReachesTheWarpWeftContact) {
     EXPECT_DOUBLE_EQ(s.width, 2 * t.sections[t.elements[element].section].a) << s.name;
     EXPECT_GT(s.width, 2 * s.radius) << s.name; // flat yarns: wider than the contact circle
   }
-  // Surface contact: pointwise friction reaches its definition; torsional friction is the
-  // spline contact's alone (said, not dropped).
+  // Surface contact: pointwise and torsional friction reach its definition; tangential damping
+  // is the spline contact's alone (said, not dropped).
   const Model surface = read_deck_string(
       std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n", "fabric.toml");
   ASSERT_EQ(surface.surface_contacts.size(), 1u);
   EXPECT_DOUBLE_EQ(surface.surface_contacts[0].friction.mu_static, 0.2);
   EXPECT_DOUBLE_EQ(surface.surface_contacts[0].friction.tangential_penalty,
                    surface.surface_contacts[0].law.penalty);
+  const Model twisted =
+      read_deck_string(std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n"
+                                             "torsional_friction = true\ntorsional_radius = 3e-4\n",
+                       "fabric.toml");
+  ASSERT_EQ(twisted.surface_contacts.size(), 1u);
+  EXPECT_TRUE(twisted.surface_contacts[0].friction.torsional);
+  EXPECT_DOUBLE_EQ(twisted.surface_contacts[0].friction.torsional_radius, 3e-4);
   const auto e = errors_of(std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n"
-                                                 "torsional_friction = true\n");
-  ASSERT_EQ(e.size(), 1u) << joined(e);
-  EXPECT_NE(e[0].find("contact.torsional_friction: 'torsional_friction' applies only to type = "
-                      "\"spline\""),
+                                                 "tangential_damping = 1.0\n");
+  ASSERT_FALSE(e.empty());
+  EXPECT_NE(joined(e).find("contact.tangential_damping: 'tangential_damping' applies only to "
+                           "type = \"spline\""),
             std::string::npos)
-      << e[0];
+      << joined(e);
   // Nor on the explicit path (its energy balance does not close).
   const auto x =
       errors_of(with("type = \"static\"", "type = \"explicit\"") + "[contact]\nfriction = 0.2\n");
