@@ -273,24 +273,39 @@ TEST(SurfaceTorsionalFrictionEngine, NewtonConvergesQuadraticallyInStickAndSlip)
 
 TEST(SurfaceTorsionalFrictionEngine, DissipationOfTheTwistsSlipIsMuNRhoTimesTheSlip) {
   // A turn to phi_a past the stick angle phi_s = mu N rho / k_r (set): the twist slips by
-  // phi_a - phi_s, dissipating mu N rho times it, and stores (mu N rho)^2 / (2 k_r).
-  const double mu = 0.5, rho = 0.008, phi_s = 0.01, phi_a = 0.05, t_end = 2.0;
+  // phi_a - phi_s, dissipating mu N rho times it, and stores (mu N rho)^2 / (2 k_r). Turned back
+  // by less than 2 phi_s, the crossing sticks from the anchor the slip left: the torque falls by
+  // k_r times the turn back.
+  const double mu = 0.5, rho = 0.008, phi_s = 0.01, phi_a = 0.05, t_turn = 2.0, t_end = 2.2;
   const double limit = mu * kNormal * rho, k_r = limit / phi_s;
-  const TimeTable turn{{0.0, 1.0, t_end}, {0.0, 0.0, phi_a}};
+  const TimeTable turn{{0.0, 1.0, t_turn, t_end}, {0.0, 0.0, phi_a, phi_a - 0.01}};
   const std::vector<Sample> samples = run_turn(torsional(mu, mu, rho, k_r), turn, t_end, 0.05);
   const Sample* pressed = nullptr;
-  for (const Sample& s : samples)
+  const Sample* turned = nullptr;
+  for (const Sample& s : samples) {
     if (std::abs(s.time - 1.0) < 1e-9)
       pressed = &s;
+    if (std::abs(s.time - t_turn) < 1e-9)
+      turned = &s;
+  }
   ASSERT_NE(pressed, nullptr);
-  const Sample& end = samples.back();
-  ASSERT_NEAR(end.time, t_end, 1e-9);
+  ASSERT_NE(turned, nullptr);
   const double slide = phi_a - phi_s;
-  EXPECT_NEAR(end.contact.dissipation, limit * slide, 1e-9 * limit * slide);
-  const double stored = end.contact.potential - pressed->contact.potential;
+  EXPECT_NEAR(turned->contact.dissipation, limit * slide, 1e-9 * limit * slide);
+  const double stored = turned->contact.potential - pressed->contact.potential;
   EXPECT_NEAR(stored, limit * limit / (2 * k_r), 1e-6 * stored);
+  int back = 0;
+  for (const Sample& s : samples) {
+    if (s.time <= t_turn + 1e-9)
+      continue;
+    EXPECT_EQ(s.contact.twist_stick, 1) << "t = " << s.time;
+    EXPECT_NEAR(s.torque, limit - k_r * (phi_a - s.phi), 1e-8 * limit) << "t = " << s.time;
+    EXPECT_EQ(s.contact.dissipation, turned->contact.dissipation) << "t = " << s.time;
+    ++back;
+  }
+  EXPECT_EQ(back, 4);
   std::printf("surface torsional friction: dissipation %.9e J (mu N rho slip %.9e J)\n",
-              end.contact.dissipation, limit * slide);
+              turned->contact.dissipation, limit * slide);
 }
 
 TEST(SurfaceTorsionalFrictionEngine, TurnIsBitwiseTheSameOnOneAndTwoThreadsAndAfterARestart) {
