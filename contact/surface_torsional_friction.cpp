@@ -78,12 +78,24 @@ SurfaceJet<H, N> constant_surface(const SuperEllipticalCylinder& s) {
   return out;
 }
 
+/// A jet of the 3 variables `first` ... `first` + 2 of the 24 DOFs as a jet of all 24.
+template <int H>
+JetT<H, 24> embed(const JetT<(H > 0 ? 3 : 0), 3>& a, int first) {
+  JetT<H, 24> out(a.v);
+  out.g.template segment<3>(first) = a.g;
+  if constexpr (H > 0)
+    out.h.template block<3, 3>(first, first) = a.h;
+  return out;
+}
+
 /// The surface's node data as jets of the 24 DOFs, the surface's own 12 at `offset` (0 for A,
 /// 12 for B): x_k linear; Q(alpha_k) = I + g (S + S^2 / 2), S = skew(alpha_k),
-/// g = 4 / (4 + alpha_k . alpha_k) (engine/math/rotation.hpp's rodrigues_rotation), times Q_n,k.
+/// g = 4 / (4 + alpha_k . alpha_k) (engine/math/rotation.hpp's rodrigues_rotation), times Q_n,k,
+/// evaluated as jets of alpha_k's 3 variables alone, then embedded.
 template <int H>
 SurfaceJet<H, 24> dof_surface(const SuperEllipticalCylinder& s, int offset) {
-  using J = JetT<H, 24>;
+  constexpr int H3 = H > 0 ? 3 : 0;
+  using J = JetT<H3, 3>;
   SurfaceJet<H, 24> out;
   for (int k = 0; k < 2; ++k) {
     const SurfaceNode& node = s.node(k);
@@ -91,7 +103,7 @@ SurfaceJet<H, 24> dof_surface(const SuperEllipticalCylinder& s, int offset) {
       out.x[k].c[d] = variable<H, 24>(node.position(d), offset + 3 * k + d);
     J a[3];
     for (int d = 0; d < 3; ++d)
-      a[d] = variable<H, 24>(node.rotation_increment(d), offset + 6 + 3 * k + d);
+      a[d] = variable<H3, 3>(node.rotation_increment(d), d);
     // S = skew(a): S(0,1) = -a2, S(0,2) = a1, S(1,0) = a2, S(1,2) = -a0, S(2,0) = -a1,
     // S(2,1) = a0; S^2 = a a^T - |a|^2 I.
     const J sq = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
@@ -120,7 +132,7 @@ SurfaceJet<H, 24> dof_surface(const SuperEllipticalCylinder& s, int offset) {
         J e = qn(0, col) * q[i][0];
         e = e + qn(1, col) * q[i][1];
         e = e + qn(2, col) * q[i][2];
-        out.axis[k][col].c[i] = e;
+        out.axis[k][col].c[i] = embed<H>(e, offset + 6 + 3 * k);
       }
   }
   return out;
@@ -152,6 +164,21 @@ SurfaceTangents<H, N> surface_jet(const SurfaceJet<H, N>& s, const SuperEllipse&
   for (int k = 0; k < 2; ++k) {
     e[k] = s.x[k] + (s1 * s.axis[k][0] + s2 * s.axis[k][1]);
     dv[k] = t1 * s.axis[k][0] + t2 * s.axis[k][1];
+  }
+  return {n0 * e[0] + n1 * e[1], 0.5 * (e[1] - e[0]), n0 * dv[0] + n1 * dv[1]};
+}
+
+/// The same at constant coordinates (zeta, theta): combinations of the node jets with scalar
+/// coefficients (the first chord step, which starts from the converged coordinates).
+template <int H, int N>
+SurfaceTangents<H, N> surface_jet(const SurfaceJet<H, N>& s, const SuperEllipse& section,
+                                  double zeta, double theta) {
+  const SuperEllipse::Point p = section.point(theta);
+  const double n0 = 0.5 * (1.0 - zeta), n1 = 0.5 * (1.0 + zeta);
+  Jet3T<H, N> e[2], dv[2];
+  for (int k = 0; k < 2; ++k) {
+    e[k] = s.x[k] + (p.value.x() * s.axis[k][0] + p.value.y() * s.axis[k][1]);
+    dv[k] = p.first.x() * s.axis[k][0] + p.first.y() * s.axis[k][1];
   }
   return {n0 * e[0] + n1 * e[1], 0.5 * (e[1] - e[0]), n0 * dv[0] + n1 * dv[1]};
 }
@@ -219,8 +246,12 @@ JetT<H, 24> angle_jet(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
     c[i] = J(c0(i));
   for (int step = 0; step < 2; ++step) {
     J r[4];
-    projection_residual(surface_jet(sa, A.section(), c[0], c[1]),
-                        surface_jet(sb, B.section(), c[2], c[3]), r);
+    if (step == 0)
+      projection_residual(surface_jet(sa, A.section(), c0(0), c0(1)),
+                          surface_jet(sb, B.section(), c0(2), c0(3)), r);
+    else
+      projection_residual(surface_jet(sa, A.section(), c[0], c[1]),
+                          surface_jet(sb, B.section(), c[2], c[3]), r);
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j < 4; ++j)
         c[i] = c[i] - inverse(i, j) * r[j];
