@@ -62,8 +62,9 @@
 // Limitations: as the surface pointwise friction, only the regular path
 // (SurfaceDegeneration::None): on the degenerate paths (Parallel, Flat*, Ridge*) the kernel
 // reports no torsional friction (`active` false). A crossing that turns through 180 degrees
-// within one increment would wrap. The jets cost about 3 MFlop per active pair and evaluation
-// with the tangent (24 x 24 Hessians, no sparsity exploited).
+// within one increment would wrap. Cost: the 24 x 24 Hessians of the jets (the rotations' own
+// 3 x 3 apart, no further sparsity exploited), about 80 us per active point and evaluation with
+// the tangent (docs/performance.md, "Torsional friction on the surface contact").
 
 #include "contact/friction.hpp" // FrictionOptions
 #include "contact/superelliptical_cylinder.hpp"
