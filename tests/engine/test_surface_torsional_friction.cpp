@@ -43,10 +43,12 @@ constexpr double kX0 = 1.0 / 16; // m, the turner's axis: the middle of a rail e
 struct Turn {
   Model model;
   std::vector<int> turner;
+  TimeTable drag{{0.0}, {0.0}}; ///< x of the turner's axis beyond 1/16 m, m, of time
 };
 
+/// `drag` (optional): the turner's axis moved along x by this table (m, of time) as it turns.
 Turn turn_model(const FrictionParameters& friction, const TimeTable& turn, double t_end, double dt,
-                bool free_rotations = false) {
+                bool free_rotations = false, const TimeTable* drag = nullptr) {
   const double E = 1e9, A = std::numbers::pi * kRadius * kRadius;
   const double I = std::numbers::pi * std::pow(kRadius, 4) / 4;
   Section s = test::stiffness_section(E * A, E * A, E * I, 2 * E * I);
@@ -58,6 +60,8 @@ Turn turn_model(const FrictionParameters& friction, const TimeTable& turn, doubl
       test::straight_beam({kX0, -0.1, z0}, {kX0, 0.1, z0}, 3, s, Eigen::Vector3d::UnitX());
   const int offset = test::append_beam(m, beam);
   Turn t;
+  if (drag)
+    t.drag = *drag;
   NodeSet rail{"rail", {}}, turner{"turner", {}};
   for (int i = 0; i <= 16; ++i)
     rail.nodes.push_back(i);
@@ -78,7 +82,7 @@ Turn turn_model(const FrictionParameters& friction, const TimeTable& turn, doubl
     TimeTable rz{times, {}};
     for (double time : times) {
       const double phi = turn.at(time);
-      dx.value.push_back(-y0 * std::sin(phi));
+      dx.value.push_back(t.drag.at(time) - y0 * std::sin(phi));
       dy.value.push_back(y0 * (std::cos(phi) - 1.0));
       rz.value.push_back(phi);
     }
@@ -125,7 +129,8 @@ public:
   void on_increment(const Simulation& sim, const IncrementReport& r) override {
     double mz = 0;
     for (int node : turn_.turner) {
-      const Eigen::Vector3d x = sim.state().x.col(node) - Eigen::Vector3d(kX0, 0, 0);
+      const Eigen::Vector3d x =
+          sim.state().x.col(node) - Eigen::Vector3d(kX0 + turn_.drag.at(r.time), 0, 0);
       const Eigen::Vector3d f = sim.reactions().col(node).head<3>();
       mz += x.cross(f).z() + sim.reactions()(5, node);
     }
@@ -306,6 +311,45 @@ TEST(SurfaceTorsionalFrictionEngine, DissipationOfTheTwistsSlipIsMuNRhoTimesTheS
   EXPECT_EQ(back, 4);
   std::printf("surface torsional friction: dissipation %.9e J (mu N rho slip %.9e J)\n",
               turned->contact.dissipation, limit * slide);
+}
+
+TEST(SurfaceTorsionalFrictionEngine, TurnedWhileDraggedOverARailNodeTheTorqueStaysWithinTheBound) {
+  // Turned in slip (0.3 rad, 40 stick angles) while dragged 0.15 m along the rail: past its node
+  // at x = 1/8 m, where the contact passes from one element's pair to the next through the
+  // shared end window, each pair with its share of the contact and its own twist anchor (the
+  // next pair anchors at its first touch). Outside the window the torque is mu N rho; inside it
+  // stays within [0, mu N rho] (it dips while the next pair's twist builds up, as the drag force
+  // does, test_surface_friction.cpp).
+  const double mu = 0.3, t_end = 2.0;
+  const double rho = contact::footprint_radius(2 * kRadius, 2 * kRadius);
+  const double bound = mu * kNormal * rho;
+  const TimeTable turn{{0.0, 1.0, t_end}, {0.0, 0.0, 0.3}};
+  const TimeTable drag{{0.0, 1.0, t_end}, {0.0, 0.0, 0.15}};
+  const Turn t = turn_model(torsional(mu, mu), turn, t_end, 0.02, false, &drag);
+  Simulation sim(t.model);
+  Recorder rec(t, turn);
+  sim.run(&rec);
+  int full = 0, turning = 0, shared = 0;
+  double lowest = bound;
+  for (const Sample& s : rec.samples) {
+    if (s.time <= 1.0 + 1e-9)
+      continue;
+    ++turning;
+    EXPECT_NEAR(s.contact.total_force, kNormal, 1e-8 * kNormal) << "t = " << s.time;
+    EXPECT_LE(std::abs(s.torque), bound * (1 + 1e-9)) << "t = " << s.time;
+    EXPECT_GE(s.torque, -1e-9 * bound) << "t = " << s.time;
+    // The supports' torque is the contact's (the pairs' torques with their shares).
+    EXPECT_NEAR(s.contact.torque, std::abs(s.torque), 1e-8 * bound) << "t = " << s.time;
+    full += std::abs(s.torque - bound) < 1e-8 * bound;
+    shared += s.contact.twist_stick + s.contact.twist_slip > 1;
+    lowest = std::min(lowest, s.torque);
+  }
+  std::printf("turned while dragged over the rail's node: %d of %d increments at mu N rho, %d "
+              "with the contact held by two pairs, lowest torque %.4e N m (mu N rho = %.4e N m)\n",
+              full, turning, shared, lowest, bound);
+  EXPECT_EQ(turning, 50);
+  EXPECT_GE(shared, 2); // the window was crossed
+  EXPECT_GT(full, 35);  // of 50: all but the increments in the window
 }
 
 TEST(SurfaceTorsionalFrictionEngine, TurnIsBitwiseTheSameOnOneAndTwoThreadsAndAfterARestart) {
