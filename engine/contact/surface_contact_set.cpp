@@ -3,6 +3,7 @@
 #include "engine/assembly/assembler.hpp"
 #include "engine/contact/spline_contact_set.hpp" // make_interface_law
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
@@ -83,12 +84,8 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
     d->law = make_interface_law(def.law);
     if (def.friction.active()) {
       const FrictionParameters& f = def.friction;
-      if (f.tangential_damping > 0)
-        throw std::invalid_argument(fmt::format(
-            "contact '{}': surface contact friction has no tangential damping in this version",
-            def.name));
       try {
-        d->friction.emplace(f.mu_static, f.mu_kinetic, f.tangential_penalty);
+        d->friction.emplace(f.mu_static, f.mu_kinetic, f.tangential_penalty, f.tangential_damping);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(fmt::format("contact '{}': {}", def.name, e.what()));
       }
@@ -105,6 +102,7 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
       }
       any_friction_ = true;
       any_torsional_ = any_torsional_ || d->torsional;
+      damped_ = damped_ || d->friction->c_t() > 0;
     }
     d->boxes.resize(d->surface.size());
     definitions_.push_back(std::move(d));
@@ -171,7 +169,7 @@ bool SurfaceContactSet::update_candidates(const State& state) {
 }
 
 std::string SurfaceContactSet::project(const State& state, bool want_tangent,
-                                       const ContactRates* /*rates*/) {
+                                       const ContactRates* rates) {
   contact::SurfaceContactOptions options;
   options.compute_tangent = want_tangent;
   if (any_friction_) {
@@ -277,8 +275,27 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
                 item.history.twist = contact::surface_crossing_angle(A, B, item.result);
               continue;
             }
+            // Tangential damping: the kernel's DOF rates, per surface node A, node B translations
+            // then Rodrigues rates alpha' = Xi(alpha)^-1 omega (omega spatial).
+            contact::SurfacePairRates pair_rates;
+            const bool damped =
+                rates != nullptr && rates->velocity != nullptr && d.friction->c_t() > 0;
+            if (damped) {
+              const std::array<int, 4> nodes = nodes_of(d, item.pair);
+              const contact::SuperEllipticalCylinder* cyl[2] = {&A, &B};
+              for (int X = 0; X < 2; ++X)
+                for (int k = 0; k < 2; ++k) {
+                  const int node = nodes[2 * X + k];
+                  pair_rates.rate.segment<3>(12 * X + 3 * k) = rates->velocity->col(node);
+                  if (rates->angular_velocity != nullptr)
+                    pair_rates.rate.segment<3>(12 * X + 6 + 3 * k) =
+                        cyl[X]->xi(k).inverse() * rates->angular_velocity->col(node);
+                }
+              pair_rates.velocity_per_displacement = rates->velocity_per_displacement;
+            }
             contact::surface_friction(A, B, item.result, want_tangent ? &sensitivity_[w] : nullptr,
-                                      item.history, *d.friction, f, friction_options);
+                                      item.history, *d.friction, f, friction_options,
+                                      damped ? &pair_rates : nullptr);
             if (!d.torsional)
               continue;
             const Surface& sa = model_.surfaces[d.surface[item.pair.first]];

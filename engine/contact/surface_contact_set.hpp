@@ -31,10 +31,14 @@ public:
   ~SurfaceContactSet() override;
 
   bool update_candidates(const State& state) override;
-  /// Surface contact has no damping in this version (the constructor refuses a damped law):
-  /// `rates` is not used.
+  /// `rates` (dynamic steps, where a definition has tangential damping) feed the friction's
+  /// dashpot: the nodes' velocities and spatial angular velocities, as the kernel's DOF rates
+  /// (Rodrigues rates Xi(alpha)^-1 omega). The normal law has no damping on this contact in
+  /// this version (the constructor refuses a damped law).
   std::string project(const State& state, bool want_tangent,
                       const ContactRates* rates = nullptr) override;
+  /// Whether a definition has tangential damping (it needs the rates of dynamic steps).
+  bool damped() const { return damped_; }
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;
@@ -135,6 +139,7 @@ private:
   std::vector<contact::SurfaceContactSensitivity> sensitivity_;
   std::vector<contact::SurfaceFrictionResult> friction_;
   bool any_torsional_ = false;
+  bool damped_ = false; ///< some definition has tangential damping
   /// Per work item: the torsional result's scalars (active where it was evaluated; its residual
   /// and tangent are added to friction_'s), and, where a definition has torsional friction, the
   /// kernel's output buffer (its 24 x 24 tangent kept out of the parallel loop's stack).

@@ -1545,22 +1545,15 @@ private:
              {"line_contact", "line_angle", "point_angle", "line_penalty", "gauss_points"})
           if (t.present(key))
             t.error(key, fmt::format("'{}' applies only to type = \"spline\"", key));
-        // Pointwise and torsional friction; no tangential damping on this contact.
-        bool spline_only = false;
-        if (t.present("tangential_damping")) {
-          t.error("tangential_damping",
-                  "'tangential_damping' applies only to type = \"spline\" (surface contact "
-                  "friction has no tangential damping in this version)");
-          spline_only = true;
-        }
-        if (!spline_only)
-          read_contact_friction(t, c.law, c.friction);
+        // Pointwise friction with its tangential damping, and torsional friction.
+        read_contact_friction(t, c.law, c.friction);
         if (c.friction.active() && explicit_step_ != nullptr)
           t.error(t.present("friction") ? "friction" : "static_friction",
                   fmt::format("friction is not available on the explicit path in this version "
                               "({} is explicit): its energy balance does not close "
                               "(docs/formulation.md, \"Friction\")",
                               explicit_step_->path()));
+        contact_damping_steps(t, 0, c.friction.tangential_damping);
         c.margin = t.number("margin").value_or(0);
         model_.surface_contacts.push_back(std::move(c));
         continue;

@@ -413,10 +413,6 @@ public:
     if (contact) {
       read_contact_friction(*contact, law, friction);
       const char* key = contact->present("friction") ? "friction" : "static_friction";
-      if (formulation == ContactFormulation::Surface && contact->present("tangential_damping"))
-        contact->error("tangential_damping",
-                       "'tangential_damping' applies only to type = \"spline\" (surface contact "
-                       "friction has no tangential damping in this version)");
       if (friction.active() && loading && loading->type == StepType::Explicit)
         contact->error(key, fmt::format("friction is not available on the explicit path in this "
                                         "version ({} type = \"explicit\"): its energy balance "

@@ -1018,7 +1018,7 @@ TEST(DeckSurfaces, SurfacesAndSurfaceContactsResolveToIndices) {
   EXPECT_EQ(m.spline_contacts.size(), 2u);
 }
 
-TEST(DeckSurfaces, SurfaceContactFrictionIsReadAndItsSplineOnlyKeysRefused) {
+TEST(DeckSurfaces, SurfaceContactFrictionIsReadWithItsTangentialDamping) {
   const Model m =
       read_deck_string(kSurfaces + "static_friction = 0.3\nkinetic_friction = 0.2\n", "deck.toml");
   const FrictionParameters& f = m.surface_contacts[0].friction;
@@ -1026,11 +1026,24 @@ TEST(DeckSurfaces, SurfaceContactFrictionIsReadAndItsSplineOnlyKeysRefused) {
   EXPECT_DOUBLE_EQ(f.mu_kinetic, 0.2);
   EXPECT_DOUBLE_EQ(f.tangential_penalty, 3.5e5); // the linear law's penalty
   EXPECT_FALSE(f.torsional);
+  EXPECT_EQ(f.tangential_damping, 0.0);
+  // Tangential damping acts on the velocities of dynamic steps, as on the spline contact.
   const auto errors = errors_of(kSurfaces + "friction = 0.2\ntangential_damping = 1.0\n");
   ASSERT_EQ(errors.size(), 1u) << joined(errors);
-  EXPECT_TRUE(has(errors, "'tangential_damping' applies only to type = \"spline\" (surface "
-                          "contact friction has no tangential damping in this version)"))
+  EXPECT_TRUE(has(errors, "contact damping acts on the velocities of dynamic steps"))
       << joined(errors);
+  // On a dynamic step (the beam section given a mass; the rod's comes from its material).
+  const std::string dynamic_deck =
+      replace(replace(kSurfaces, "type = \"static\"", "type = \"dynamic\""), "GJ = 1.0",
+              "GJ = 1.0\nrhoA = 1.0");
+  const Model dynamic =
+      read_deck_string(dynamic_deck + "friction = 0.2\ntangential_damping = 1.0\n", "deck.toml");
+  EXPECT_DOUBLE_EQ(dynamic.surface_contacts[0].friction.tangential_damping, 1.0);
+  // The normal law's damping stays the spline contact's.
+  const auto normal = errors_of(dynamic_deck + "damping = 1.0\n");
+  ASSERT_EQ(normal.size(), 1u) << joined(normal);
+  EXPECT_TRUE(has(normal, "surface contact damping is not available in this version"))
+      << joined(normal);
 }
 
 TEST(DeckSurfaces, SurfaceContactTorsionalFrictionIsReadWithItsChecks) {
