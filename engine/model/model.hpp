@@ -239,8 +239,8 @@ struct SurfaceContactDefinition {
   InterfaceLawParameters law;
   double margin = 0; ///< m, broad-phase box inflation beyond the section; 0: the smaller semi-axis
   /// Coulomb friction at the contact points (contact/surface_friction.hpp): the coefficients,
-  /// the tangential penalty and torsional friction at the crossings
-  /// (contact/surface_torsional_friction.hpp); no tangential damping on this contact.
+  /// the tangential penalty, tangential damping (dynamic steps) and torsional friction at the
+  /// crossings (contact/surface_torsional_friction.hpp). The law's normal damping is refused.
   FrictionParameters friction{};
 };
 
