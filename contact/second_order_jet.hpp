@@ -1,7 +1,8 @@
 #pragma once
-// Forward-mode differentiation over the 18 positions of a segment pair: a value with its
-// gradient and (for the tangent) its Hessian, carried through the arithmetic of a contact
-// kernel. Used where the hand-written chain rule would be long and error-prone (the angle
+// Forward-mode differentiation over the N DOFs of a contact pair (18 positions of a spline
+// segment pair; 24 DOFs of a surface element pair, surface_torsional_friction.cpp): a value
+// with its gradient and (for the tangent) its Hessian, carried through the arithmetic of a
+// contact kernel. Used where the hand-written chain rule would be long and error-prone (the angle
 // between the tangents at projected points, whose second derivatives need the second
 // derivatives of the projections). Fixed size, no allocation.
 
@@ -11,13 +12,14 @@
 
 namespace yarnsim::contact {
 
-/// A scalar function of the 18 positions x at one point: value, d/dx (18) and, for H = 18,
-/// d2/dx2 (18 x 18); H = 0 carries no Hessian (residual only: explicit dynamics), and every
-/// operation on it then costs a gradient's work.
-template <int H>
+/// A scalar function of the N variables x at one point: value, d/dx (N) and, for H = N,
+/// d2/dx2 (N x N); H = 0 carries no Hessian (residual only: explicit dynamics), and every
+/// operation on it then costs a gradient's work. N = 18 (the default): the spline kernels'
+/// positions.
+template <int H, int N = 18>
 struct JetT {
-  static_assert(H == 0 || H == 18);
-  using Vec = Eigen::Matrix<double, 18, 1>;
+  static_assert(H == 0 || H == N);
+  using Vec = Eigen::Matrix<double, N, 1>;
   using Mat = Eigen::Matrix<double, H, H>;
   double v;
   Vec g;
@@ -36,51 +38,51 @@ using Jet = JetT<18>;
 
 /// h += s (a b^T + b a^T), column by column (Eigen's outer products of fixed 18-vectors cost
 /// more).
-template <int H>
-void add_symmetric(Eigen::Matrix<double, H, H>& h, const Eigen::Matrix<double, 18, 1>& a,
-                   const Eigen::Matrix<double, 18, 1>& b, double s) {
+template <int H, int N>
+void add_symmetric(Eigen::Matrix<double, H, H>& h, const Eigen::Matrix<double, N, 1>& a,
+                   const Eigen::Matrix<double, N, 1>& b, double s) {
   if constexpr (H > 0) {
-    const Eigen::Matrix<double, 18, 1> sa = s * a, sb = s * b;
-    for (int j = 0; j < 18; ++j)
+    const Eigen::Matrix<double, N, 1> sa = s * a, sb = s * b;
+    for (int j = 0; j < N; ++j)
       h.col(j) += sa * b(j) + sb * a(j);
   }
 }
 
-template <int H>
-JetT<H> operator+(const JetT<H>& a, const JetT<H>& b) {
-  JetT<H> out{typename JetT<H>::Unset{}};
+template <int H, int N>
+JetT<H, N> operator+(const JetT<H, N>& a, const JetT<H, N>& b) {
+  JetT<H, N> out{typename JetT<H, N>::Unset{}};
   out.v = a.v + b.v;
   out.g = a.g + b.g;
   out.h = a.h + b.h;
   return out;
 }
-template <int H>
-JetT<H> operator-(const JetT<H>& a, const JetT<H>& b) {
-  JetT<H> out{typename JetT<H>::Unset{}};
+template <int H, int N>
+JetT<H, N> operator-(const JetT<H, N>& a, const JetT<H, N>& b) {
+  JetT<H, N> out{typename JetT<H, N>::Unset{}};
   out.v = a.v - b.v;
   out.g = a.g - b.g;
   out.h = a.h - b.h;
   return out;
 }
-template <int H>
-JetT<H> operator-(const JetT<H>& a) {
-  JetT<H> out{typename JetT<H>::Unset{}};
+template <int H, int N>
+JetT<H, N> operator-(const JetT<H, N>& a) {
+  JetT<H, N> out{typename JetT<H, N>::Unset{}};
   out.v = -a.v;
   out.g = -a.g;
   out.h = -a.h;
   return out;
 }
-template <int H>
-JetT<H> operator*(double s, const JetT<H>& a) {
-  JetT<H> out{typename JetT<H>::Unset{}};
+template <int H, int N>
+JetT<H, N> operator*(double s, const JetT<H, N>& a) {
+  JetT<H, N> out{typename JetT<H, N>::Unset{}};
   out.v = s * a.v;
   out.g = s * a.g;
   out.h = s * a.h;
   return out;
 }
-template <int H>
-JetT<H> operator*(const JetT<H>& a, const JetT<H>& b) {
-  JetT<H> out{typename JetT<H>::Unset{}};
+template <int H, int N>
+JetT<H, N> operator*(const JetT<H, N>& a, const JetT<H, N>& b) {
+  JetT<H, N> out{typename JetT<H, N>::Unset{}};
   out.v = a.v * b.v;
   out.g = b.v * a.g + a.v * b.g;
   out.h = b.v * a.h + a.v * b.h;
@@ -89,46 +91,69 @@ JetT<H> operator*(const JetT<H>& a, const JetT<H>& b) {
 }
 
 /// f(a) from f, f' and f'' at a.v (the chain rule of second order).
-template <int H>
-JetT<H> apply(const JetT<H>& a, double f, double df, double d2f) {
-  JetT<H> out{typename JetT<H>::Unset{}};
+template <int H, int N>
+JetT<H, N> apply(const JetT<H, N>& a, double f, double df, double d2f) {
+  JetT<H, N> out{typename JetT<H, N>::Unset{}};
   out.v = f;
   out.g = df * a.g;
   out.h = df * a.h;
   add_symmetric(out.h, a.g, a.g, 0.5 * d2f);
   return out;
 }
-template <int H>
-JetT<H> reciprocal(const JetT<H>& a) {
+template <int H, int N>
+JetT<H, N> reciprocal(const JetT<H, N>& a) {
   const double r = 1.0 / a.v;
   return apply(a, r, -r * r, 2.0 * r * r * r);
 }
-template <int H>
-JetT<H> operator/(const JetT<H>& a, const JetT<H>& b) {
+template <int H, int N>
+JetT<H, N> operator/(const JetT<H, N>& a, const JetT<H, N>& b) {
   return a * reciprocal(b);
 }
-template <int H>
-JetT<H> sqrt(const JetT<H>& a) {
+template <int H, int N>
+JetT<H, N> sqrt(const JetT<H, N>& a) {
   const double s = std::sqrt(a.v);
   return apply(a, s, 0.5 / s, -0.25 / (s * a.v));
 }
 
 /// A 3-vector of jets.
-template <int H>
+template <int H, int N = 18>
 struct Jet3T {
-  JetT<H> c[3];
+  JetT<H, N> c[3];
 };
-template <int H>
-JetT<H> dot(const Jet3T<H>& a, const Jet3T<H>& b) {
+template <int H, int N>
+JetT<H, N> dot(const Jet3T<H, N>& a, const Jet3T<H, N>& b) {
   return a.c[0] * b.c[0] + a.c[1] * b.c[1] + a.c[2] * b.c[2];
 }
-template <int H>
-Jet3T<H> operator-(const Jet3T<H>& a, const Jet3T<H>& b) {
+template <int H, int N>
+Jet3T<H, N> operator-(const Jet3T<H, N>& a, const Jet3T<H, N>& b) {
   return {{a.c[0] - b.c[0], a.c[1] - b.c[1], a.c[2] - b.c[2]}};
 }
-template <int H>
-Eigen::Vector3d value(const Jet3T<H>& a) {
+template <int H, int N>
+Eigen::Vector3d value(const Jet3T<H, N>& a) {
   return {a.c[0].v, a.c[1].v, a.c[2].v};
+}
+
+/// a . (b x c) of jets.
+template <int H, int N>
+JetT<H, N> triple(const Jet3T<H, N>& a, const Jet3T<H, N>& b, const Jet3T<H, N>& c) {
+  return a.c[0] * (b.c[1] * c.c[2] - b.c[2] * c.c[1]) +
+         a.c[1] * (b.c[2] * c.c[0] - b.c[0] * c.c[2]) +
+         a.c[2] * (b.c[0] * c.c[1] - b.c[1] * c.c[0]);
+}
+
+/// atan2(y, x) of jets: atan(y / x) (plus a constant) where |x| >= |y|, else
+/// pi / 2 - atan(x / y) (plus a constant), which have atan2's derivatives.
+template <int H, int N>
+JetT<H, N> atan2_jet(const JetT<H, N>& y, const JetT<H, N>& x) {
+  const double value = std::atan2(y.v, x.v);
+  if (std::abs(x.v) >= std::abs(y.v)) {
+    const JetT<H, N> q = y / x;
+    const double s = 1.0 / (1.0 + q.v * q.v);
+    return apply(q, value, s, -2.0 * q.v * s * s);
+  }
+  const JetT<H, N> q = x / y;
+  const double s = 1.0 / (1.0 + q.v * q.v);
+  return apply(q, value, -s, 2.0 * q.v * s * s);
 }
 
 /// F(u) = sum_k phi_k(u) X_k as a jet of the positions, where X (columns, metres) are three

@@ -67,6 +67,46 @@ SuperEllipse::Point SuperEllipse::point(double theta) const {
   return p;
 }
 
+Eigen::Vector2d SuperEllipse::third_derivative(double theta) const {
+  const double c = std::cos(theta);
+  const double s = std::sin(theta);
+  if (m_ == 2.0) {
+    return {a_ * s, -b_ * c};
+  }
+  // As in point(), with pc = |c|^(m-2), ps = |s|^(m-2), D = ps - pc, E = c^2 ps + s^2 pc:
+  //   S''' = -4 m c s D + m (c^2 - s^2) D' + m (m-2) E',
+  //   D' = ps' - pc',  E' = 2 c s (pc - ps) + c^2 ps' + s^2 pc',
+  //   ps' = (m-2) |s|^(m-3) sgn(s) c,  pc' = -(m-2) |c|^(m-3) sgn(c) s;
+  // with L = phi'/phi = -S'/(m S): L' = -(S'' S - S'^2)/(m S^2),
+  //   L'' = -(S'''/S - 3 S' S''/S^2 + 2 S'^3/S^3)/m,
+  //   phi'' = phi (L^2 + L'),  phi''' = phi' (L^2 + L') + phi (2 L L' + L''),
+  //   x''' = phi''' c - 3 phi'' s - 3 phi' c + phi s,  y''' = phi''' s + 3 phi'' c - 3 phi' s - phi
+  //   c.
+  const double m = m_;
+  const double pc = std::pow(std::abs(c), m - 2.0);
+  const double ps = std::pow(std::abs(s), m - 2.0);
+  const double ps1 =
+      s == 0.0 ? 0.0 : (m - 2.0) * std::pow(std::abs(s), m - 3.0) * std::copysign(1.0, s) * c;
+  const double pc1 =
+      c == 0.0 ? 0.0 : -(m - 2.0) * std::pow(std::abs(c), m - 3.0) * std::copysign(1.0, c) * s;
+  const double S = pc * c * c + ps * s * s;
+  const double D = ps - pc;
+  const double S1 = m * c * s * D;
+  const double S2 = m * (c * c - s * s) * D + m * (m - 2.0) * (c * c * ps + s * s * pc);
+  const double E1 = 2.0 * c * s * (pc - ps) + c * c * ps1 + s * s * pc1;
+  const double S3 = -4.0 * m * c * s * D + m * (c * c - s * s) * (ps1 - pc1) + m * (m - 2.0) * E1;
+  const double phi = std::pow(S, -1.0 / m);
+  const double L = -S1 / (m * S);
+  const double L1 = -(S2 * S - S1 * S1) / (m * S * S);
+  const double L2 = -(S3 / S - 3.0 * S1 * S2 / (S * S) + 2.0 * S1 * S1 * S1 / (S * S * S)) / m;
+  const double phi1 = phi * L;
+  const double phi2 = phi * (L * L + L1);
+  const double phi3 = phi1 * (L * L + L1) + phi * (2.0 * L * L1 + L2);
+  const double x3 = phi3 * c - 3.0 * phi2 * s - 3.0 * phi1 * c + phi * s;
+  const double y3 = phi3 * s + 3.0 * phi2 * c - 3.0 * phi1 * s - phi * c;
+  return {a_ * x3, b_ * y3};
+}
+
 double SuperEllipse::support(const Eigen::Vector2d& n) const {
   if (m_ == 2.0) {
     return std::sqrt(a_ * a_ * n.x() * n.x() + b_ * b_ * n.y() * n.y());

@@ -39,6 +39,12 @@ public:
   /// s(theta) and its first two derivatives; any theta (2 pi periodic). Never allocates.
   Point point(double theta) const;
 
+  /// d3s/dtheta3 (section axes 1, 2; metres), for the second derivatives of the surface's
+  /// theta-tangent (surface_torsional_friction.cpp). For 2 < m < 3 it is unbounded at the
+  /// vertices (|sin theta|^(m - 3) or |cos theta|^(m - 3)); exactly at a vertex that term is
+  /// taken as zero. Never allocates.
+  Eigen::Vector2d third_derivative(double theta) const;
+
   /// Support function h(n) = max over the section of n . s = (|a n1|^q + |b n2|^q)^(1/q),
   /// q = m / (m - 1), for a direction n in the section plane (section axes 1, 2): for a unit n,
   /// the distance from the centre to the tangent line with outward normal n, metres. For the

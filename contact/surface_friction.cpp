@@ -1,5 +1,7 @@
 #include "contact/surface_friction.hpp"
 
+#include "engine/math/rotation.hpp" // skew
+
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -51,7 +53,8 @@ void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
                       const SurfaceContactResult& contact,
                       const SurfaceContactSensitivity* sensitivity,
                       const SurfaceFrictionHistory& history, const CoulombFriction& law,
-                      SurfaceFrictionResult& out, const FrictionOptions& options) {
+                      SurfaceFrictionResult& out, const FrictionOptions& options,
+                      const SurfacePairRates* rates) {
   out.active = false;
   out.slipping = false;
   out.mu = 0.0;
@@ -116,12 +119,26 @@ void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
     out.slip_increment = gap_norm - mu * f_n / (w * eps_t);
     out.dissipation = mu * f_n * out.slip_increment;
   }
-  out.force = f;
-
-  // residual = -G^T f = -J_A^T f (A's DOFs), +J_B^T f (B's).
+  // Tangential damping on the relative velocity of the contact points at fixed coordinates:
+  // v_rel = G v = J_A v_A - J_B v_B, v_t = (I - n n^T) v_rel, f = f_c - w c_t v_t.
   Cylinder::Jacobian jac[2];
   for (int x = 0; x < 2; ++x) {
     jac[x] = s[x]->jacobian(p[x]);
+  }
+  const bool damped = rates != nullptr && law.c_t() > 0.0;
+  const Vector3d& n = contact.normal;
+  Vector3d v_rel = Vector3d::Zero();
+  if (damped) {
+    for (int x = 0; x < 2; ++x) {
+      v_rel.noalias() += sigma(x) * (jac[x] * rates->rate.segment<12>(12 * x));
+    }
+    out.sliding_velocity = v_rel - n * n.dot(v_rel);
+    f -= (w * law.c_t()) * out.sliding_velocity;
+  }
+  out.force = f;
+
+  // residual = -G^T f = -J_A^T f (A's DOFs), +J_B^T f (B's).
+  for (int x = 0; x < 2; ++x) {
     out.residual.segment<12>(12 * x).noalias() = -sigma(x) * (jac[x].transpose() * f);
   }
   if (!options.compute_tangent) {
@@ -162,6 +179,48 @@ void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
   } else {
     df.noalias() = (w * eps_t) * dgt;
     df.noalias() += (eps_t * g_t) * sensitivity->share.transpose();
+  }
+  if (damped) {
+    // d(w c_t v_t)/dd = c_t (w dv_t/dd + v_t (dw/dd)^T), with
+    //   dv_rel/dd = sum_X sigma_X [vpd J_X + d(J_X v_X)/dd_X + (dJ_X/dc v_X) dc/dd],
+    //   d(J_X v_X)/dd_X row i = (d2(e_i . Gamma_X)/dd2 v_X)^T (weighted_hessian),
+    //   dJ_X/dzeta = d_zeta_jacobian, dJ_X/dtheta = d_theta_jacobian (mixed partials);
+    //   n = s_B nu / |nu|, nu = Gamma_B,theta x Gamma_B,zeta (B's outward normal, the contact
+    //   normal at a regular projection), dn/dd = s_B (I - n n^T) dnu/dd / |nu|;
+    //   dv_t/dd = (I - n n^T) dv_rel/dd - n v_rel^T dn/dd - (n . v_rel) dn/dd.
+    const double vpd = rates->velocity_per_displacement;
+    Mat3x24 dv = Mat3x24::Zero();
+    for (int x = 0; x < 2; ++x) {
+      const auto vx = rates->rate.segment<12>(12 * x);
+      const double sg = sigma(x);
+      dv.middleCols<12>(12 * x) += (sg * vpd) * jac[x];
+      for (int i = 0; i < 3; ++i) {
+        dv.block<1, 12>(i, 12 * x) +=
+            sg * (s[x]->weighted_hessian(p[x], Vector3d::Unit(i)) * vx).transpose();
+      }
+      dv.noalias() += (sg * (s[x]->d_zeta_jacobian(p[x]) * vx)) * dc.row(2 * x);
+      dv.noalias() += (sg * (s[x]->d_theta_jacobian(p[x]) * vx)) * dc.row(2 * x + 1);
+    }
+    const Cylinder::Point& pb = p[1];
+    Mat3x24 db1 = Mat3x24::Zero(); // d(Gamma_B,zeta)/dd
+    Mat3x24 db2 = Mat3x24::Zero(); // d(Gamma_B,theta)/dd
+    db1.middleCols<12>(12) = B.d_zeta_jacobian(pb);
+    db1.noalias() += pb.d_zeta_theta * dc.row(3);
+    db2.middleCols<12>(12) = B.d_theta_jacobian(pb);
+    db2.noalias() += pb.d_zeta_theta * dc.row(2);
+    db2.noalias() += pb.d_theta_theta * dc.row(3);
+    const Vector3d nu = pb.d_theta.cross(pb.d_zeta);
+    const double nu_norm = nu.norm();
+    const double s_b = nu.dot(n) < 0.0 ? -1.0 : 1.0;
+    Mat3x24 dn;
+    dn.noalias() = -skew<double>(pb.d_zeta) * db2;
+    dn.noalias() += skew<double>(pb.d_theta) * db1;
+    dn = (s_b / nu_norm) * (dn - n * (n.transpose() * dn));
+    Mat3x24 dvt = dv - n * (n.transpose() * dv);
+    dvt.noalias() -= n * (v_rel.transpose() * dn);
+    dvt -= n.dot(v_rel) * dn;
+    df.noalias() -= (w * law.c_t()) * dvt;
+    df.noalias() -= (law.c_t() * out.sliding_velocity) * sensitivity->share.transpose();
   }
 
   // tangent = -G^T df - d2(f . g)/dd2 - M(f)^T C, M(f)_i = f^T J_i.

@@ -63,8 +63,17 @@
 // kernel, the surface points carry the force's moment about the nodes (through the Rodrigues
 // DOFs), so no couple is dropped.
 //
-// Limitations. No tangential damping: CoulombFriction::c_t is ignored (sliding_velocity is
-// zero; SurfacePairRates feed only the normal law, whose damping enters through f_n). The kernel
+// Tangential damping (optional, c_t >= 0, with SurfacePairRates): as the spline kernel's, a
+// dashpot in parallel with the Coulomb element on the relative tangential velocity of the
+// contact points at fixed coordinates, v_t = (I - n n^T) G v (v the 24 DOF rates), with the
+// share: f = f_c - w c_t v_t (two pairs sharing a contact damp with c_t together). It is not
+// limited by the cone. Its tangent holds dv/dd = velocity_per_displacement I, the DOF
+// derivatives of G v at fixed c (weighted_hessian, d_zeta_jacobian, d_theta_jacobian), those
+// through dc/dd, the normal's through B's outward normal Gamma_B,theta x Gamma_B,zeta, and the
+// share's. The engine does not feed the surface contact rates in this version (ContactRates
+// carry no rotation rates), so the decks refuse tangential_damping on surface contacts.
+//
+// Limitations. The kernel
 // evaluates friction only for an active regular projection (SurfaceDegeneration::None): on the
 // degenerate paths (Parallel, Flat*, Ridge*) surface_contact gives no sensitivity and the kernel
 // reports no friction (`active` false); those are left for later. The tangent's dc/dd is
@@ -90,9 +99,15 @@ struct SurfaceFrictionHistory {
   double zeta_B = 0.0;  ///< the same on B
   double theta_B = 0.0;
   bool stuck = true; ///< stuck in the last committed state: mu_s applies, else mu_k
+  /// Torsional friction (surface_torsional_friction.hpp): the anchor crossing angle, rad, and
+  /// whether the crossing's twist stuck in the last committed state. Set by the caller where
+  /// torsional friction applies (surface_crossing_angle at first touch).
+  double twist = 0.0;
+  bool twist_stuck = true;
 };
 
-/// The history of a contact point that has just closed: anchored where it touched, stuck.
+/// The history of a contact point that has just closed: anchored where it touched, stuck (the
+/// twist anchor, where torsional friction applies, is set by the caller: surface_crossing_angle).
 inline SurfaceFrictionHistory first_touch(const SurfaceContactResult& contact) {
   return {contact.zeta_A, contact.theta_A, contact.zeta_B, contact.theta_B, true};
 }
@@ -107,9 +122,9 @@ struct SurfaceFrictionResult {
   bool slipping = false; ///< the trial force left the cone (phi > 0)
   double mu = 0.0;       ///< the coefficient used, mu_s or mu_k
   Eigen::Vector3d elastic_gap = Eigen::Vector3d::Zero(); ///< trial g_t, metres
-  /// Always zero: the surface kernel has no tangential damping (see the file's comment).
+  /// v_t, m/s; zero without SurfacePairRates or damping (see the file's comment).
   Eigen::Vector3d sliding_velocity = Eigen::Vector3d::Zero();
-  /// Friction force on A at its contact point (on B: the opposite), N.
+  /// Friction force on A at its contact point (on B: the opposite), N: f_c - w c_t v_t.
   Eigen::Vector3d force = Eigen::Vector3d::Zero();
   double slip_function = 0.0;  ///< trial phi = w eps_t |g_t| - mu f_n, N
   double slip_increment = 0.0; ///< |g_t| - mu f_n / (w eps_t) when slipping, else 0, metres
@@ -131,13 +146,15 @@ struct SurfaceFrictionResult {
 /// contact is `contact`: the result of surface_contact for the same configuration.
 /// `sensitivity` is the SurfaceContactSensitivity surface_contact wrote for it; it is needed
 /// only for the tangent (nullptr with `options.compute_tangent` false). `history` is held fixed:
-/// the caller commits `out.history` with a converged increment.
+/// the caller commits `out.history` with a converged increment. `rates` (optional; the same as
+/// surface_contact's, if the normal law damps) feed the tangential damping.
 ///
 /// With G = dg/dd, J_i = dg_i/dd (both at fixed c), Delta = c - c^s, C = dc/dd (sensitivity),
 ///   dg_t/dd = sum_i Delta_i J_i + (g_c + K) C,   g_c = [g_1 .. g_4],
 ///             K_k = sum_i Delta_i d2g/dc_i dc_k (same surface only),
 ///   stick: df/dd = eps_t (g_t grad w^T + w dg_t/dd),
 ///   slip:  df/dd = mu t (df_n/dd)^T + mu f_n / |g_t| (I - t t^T) dg_t/dd,   t = g_t / |g_t|,
+///   damped: df/dd -= c_t (w dv_t/dd + v_t (dw/dd)^T) (see the file's comment),
 ///   tangent = -G^T df/dd - d2(f . g)/dd2 |_(c, f fixed) - M(f)^T C,   M(f)_i = f^T J_i.
 /// Throws std::invalid_argument if the tangent is asked for and `sensitivity` is null or not
 /// valid. Writes into `out`; never allocates.
@@ -145,6 +162,7 @@ void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
                       const SurfaceContactResult& contact,
                       const SurfaceContactSensitivity* sensitivity,
                       const SurfaceFrictionHistory& history, const CoulombFriction& law,
-                      SurfaceFrictionResult& out, const FrictionOptions& options = {});
+                      SurfaceFrictionResult& out, const FrictionOptions& options = {},
+                      const SurfacePairRates* rates = nullptr);
 
 } // namespace yarnsim::contact

@@ -17,29 +17,6 @@ namespace {
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
-/// a . (b x c) of jets.
-template <int H>
-JetT<H> triple(const Jet3T<H>& a, const Jet3T<H>& b, const Jet3T<H>& c) {
-  return a.c[0] * (b.c[1] * c.c[2] - b.c[2] * c.c[1]) +
-         a.c[1] * (b.c[2] * c.c[0] - b.c[0] * c.c[2]) +
-         a.c[2] * (b.c[0] * c.c[1] - b.c[1] * c.c[0]);
-}
-
-/// atan2(y, x) of jets: atan(y / x) (plus a constant) where |x| >= |y|, else
-/// pi / 2 - atan(x / y) (plus a constant), which have atan2's derivatives.
-template <int H>
-JetT<H> atan2_jet(const JetT<H>& y, const JetT<H>& x) {
-  const double value = std::atan2(y.v, x.v);
-  if (std::abs(x.v) >= std::abs(y.v)) {
-    const JetT<H> q = y / x;
-    const double s = 1.0 / (1.0 + q.v * q.v);
-    return apply(q, value, s, -2.0 * q.v * s * s);
-  }
-  const JetT<H> q = x / y;
-  const double s = 1.0 / (1.0 + q.v * q.v);
-  return apply(q, value, -s, 2.0 * q.v * s * s);
-}
-
 /// theta (the file header's crossing angle) as a jet of the positions: atan2 of
 /// (g . (a x b), |g| a . b), which are n . (a x b) and a . b times |g| > 0.
 template <int H>

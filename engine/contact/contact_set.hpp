@@ -112,6 +112,10 @@ struct ContactRates {
   const Eigen::Matrix3Xd* velocity = nullptr; ///< 3 x n_nodes, m/s (Newmark's, of the iterate)
   /// dv/dx of the integrator, 1/s (Newmark: gamma / (beta dt)), for the tangent.
   double velocity_per_displacement = 0;
+  /// 3 x n_nodes, rad/s: the nodes' spatial angular velocities (Newmark's, of the iterate), for
+  /// the surface contact, whose points turn with the nodes' sections; null where no surface
+  /// contact damps.
+  const Eigen::Matrix3Xd* angular_velocity = nullptr;
 };
 
 /// One contact formulation's stage over all of its definitions in a model.

@@ -123,7 +123,8 @@ std::string ContactStage::formulations() const {
 
 bool ContactStage::damped() const {
   const SplineContactSet* s = spline();
-  return s != nullptr && s->damped();
+  const SurfaceContactSet* f = surface();
+  return (s != nullptr && s->damped()) || (f != nullptr && f->damped());
 }
 
 SplineContactSet* ContactStage::spline() {

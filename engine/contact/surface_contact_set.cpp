@@ -3,6 +3,7 @@
 #include "engine/assembly/assembler.hpp"
 #include "engine/contact/spline_contact_set.hpp" // make_interface_law
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
@@ -27,6 +28,16 @@ struct SurfaceContactSet::Definition {
   std::shared_ptr<const contact::InterfaceLaw> law;
   std::vector<Eigen::AlignedBox3d> boxes;
   std::optional<contact::CoulombFriction> friction; ///< none: frictionless
+  bool torsional = false;       ///< torsional friction at the crossings (with `friction`)
+  double torsional_radius = 0;  ///< rho, m; 0: from the pair's widths
+  double torsional_penalty = 0; ///< k_r, N m/rad; 0: eps_t rho^2
+  /// The torsional law of a pair of surfaces of widths wa, wb (m, twice the semi-axis a):
+  /// FrictionParameters' defaults, as SplineContactSet's.
+  contact::TorsionalFriction torsion(double wa, double wb) const {
+    const double rho = torsional_radius > 0 ? torsional_radius : contact::footprint_radius(wa, wb);
+    const double k_r = torsional_penalty > 0 ? torsional_penalty : friction->eps_t() * rho * rho;
+    return {friction->mu_s(), friction->mu_k(), k_r, rho};
+  }
 };
 
 SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
@@ -73,16 +84,25 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
     d->law = make_interface_law(def.law);
     if (def.friction.active()) {
       const FrictionParameters& f = def.friction;
-      if (f.tangential_damping > 0 || f.torsional)
-        throw std::invalid_argument(
-            fmt::format("contact '{}': surface contact friction has no {} in this version",
-                        def.name, f.torsional ? "torsional friction" : "tangential damping"));
       try {
-        d->friction.emplace(f.mu_static, f.mu_kinetic, f.tangential_penalty);
+        d->friction.emplace(f.mu_static, f.mu_kinetic, f.tangential_penalty, f.tangential_damping);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(fmt::format("contact '{}': {}", def.name, e.what()));
       }
+      if (f.torsional) {
+        if (!(std::isfinite(f.torsional_radius) && f.torsional_radius >= 0 &&
+              std::isfinite(f.torsional_penalty) && f.torsional_penalty >= 0))
+          throw std::invalid_argument(fmt::format(
+              "contact '{}': expected torsional_radius >= 0 m and torsional_penalty >= 0 N m/rad "
+              "(0: the defaults), found {} and {}",
+              def.name, f.torsional_radius, f.torsional_penalty));
+        d->torsional = true;
+        d->torsional_radius = f.torsional_radius;
+        d->torsional_penalty = f.torsional_penalty;
+      }
       any_friction_ = true;
+      any_torsional_ = any_torsional_ || d->torsional;
+      damped_ = damped_ || d->friction->c_t() > 0;
     }
     d->boxes.resize(d->surface.size());
     definitions_.push_back(std::move(d));
@@ -149,12 +169,15 @@ bool SurfaceContactSet::update_candidates(const State& state) {
 }
 
 std::string SurfaceContactSet::project(const State& state, bool want_tangent,
-                                       const ContactRates* /*rates*/) {
+                                       const ContactRates* rates) {
   contact::SurfaceContactOptions options;
   options.compute_tangent = want_tangent;
   if (any_friction_) {
     sensitivity_.resize(work_.size());
     friction_.resize(work_.size());
+    twist_.resize(work_.size());
+    if (any_torsional_)
+      torsion_.resize(work_.size());
   }
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, work_.size(), 8),
@@ -221,11 +244,13 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
       const Snapshot::Warm* c = item.warm >= 0 ? &committed_[item.warm] : nullptr;
       if (c != nullptr && c->friction != 0) {
         item.history = {c->anchor_zeta_A, c->anchor_theta_A, c->anchor_zeta_B, c->anchor_theta_B,
-                        c->friction == 1};
+                        c->friction == 1, c->twist_anchor,   c->twist != 2};
         item.slip = c->slip;
+        item.twist_slip = c->twist_slip;
       } else {
         item.history = contact::first_touch(item.result);
         item.slip = 0;
+        item.twist_slip = 0;
         item.first_touch = true;
       }
     }
@@ -235,16 +260,55 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
         tbb::blocked_range<std::size_t>(0, work_.size(), 8),
         [&](const tbb::blocked_range<std::size_t>& range) {
           for (std::size_t w = range.begin(); w != range.end(); ++w) {
-            const Work& item = work_[w];
+            Work& item = work_[w];
             const Definition& d = *definitions_[item.definition];
             contact::SurfaceFrictionResult& f = friction_[w];
             f.active = false;
-            if (!d.friction || !item.result.active || !sensitivity_[w].valid || item.first_touch)
+            twist_[w].active = false;
+            if (!d.friction || !item.result.active || !sensitivity_[w].valid)
               continue;
             const auto A = cylinder(d, item.pair.first, state);
             const auto B = cylinder(d, item.pair.second, state);
+            if (item.first_touch) {
+              // Anchored where it is if this increment converges (commit).
+              if (d.torsional)
+                item.history.twist = contact::surface_crossing_angle(A, B, item.result);
+              continue;
+            }
+            // Tangential damping: the kernel's DOF rates, per surface node A, node B translations
+            // then Rodrigues rates alpha' = Xi(alpha)^-1 omega (omega spatial).
+            contact::SurfacePairRates pair_rates;
+            const bool damped =
+                rates != nullptr && rates->velocity != nullptr && d.friction->c_t() > 0;
+            if (damped) {
+              const std::array<int, 4> nodes = nodes_of(d, item.pair);
+              const contact::SuperEllipticalCylinder* cyl[2] = {&A, &B};
+              for (int X = 0; X < 2; ++X)
+                for (int k = 0; k < 2; ++k) {
+                  const int node = nodes[2 * X + k];
+                  pair_rates.rate.segment<3>(12 * X + 3 * k) = rates->velocity->col(node);
+                  if (rates->angular_velocity != nullptr)
+                    pair_rates.rate.segment<3>(12 * X + 6 + 3 * k) =
+                        cyl[X]->xi(k).inverse() * rates->angular_velocity->col(node);
+                }
+              pair_rates.velocity_per_displacement = rates->velocity_per_displacement;
+            }
             contact::surface_friction(A, B, item.result, want_tangent ? &sensitivity_[w] : nullptr,
-                                      item.history, *d.friction, f, friction_options);
+                                      item.history, *d.friction, f, friction_options,
+                                      damped ? &pair_rates : nullptr);
+            if (!d.torsional)
+              continue;
+            const Surface& sa = model_.surfaces[d.surface[item.pair.first]];
+            const Surface& sb = model_.surfaces[d.surface[item.pair.second]];
+            contact::SurfaceTorsionalFrictionResult& t = torsion_[w];
+            contact::surface_torsional_friction(
+                A, B, item.result, want_tangent ? &sensitivity_[w] : nullptr, item.history,
+                d.torsion(2 * sa.a, 2 * sb.a), t, friction_options);
+            f.residual += t.residual;
+            if (want_tangent)
+              f.tangent += t.tangent;
+            twist_[w] = {t.active,      t.slipping, t.torque, t.slip_increment,
+                         t.dissipation, t.energy,   t.anchor};
           }
         });
   }
@@ -317,6 +381,16 @@ void SurfaceContactSet::summarise() {
       summary_.potential += w.factor * f.force.squaredNorm() /
                             (2.0 * share * definitions_[w.definition]->friction->eps_t());
     summary_.dissipation += w.factor * f.dissipation;
+    const Twist& t = twist_[k];
+    if (!t.active)
+      continue;
+    ++(t.slipping ? summary_.twist_slip : summary_.twist_stick);
+    if (t.slipping) // a kink of the torsional law, as above
+      summary_.active_set = fold_active_pair(summary_.active_set, -(1 << 20) - w.definition,
+                                             w.pair.first, w.pair.second);
+    summary_.torque += w.factor * std::abs(t.torque);
+    summary_.potential += w.factor * t.energy;
+    summary_.dissipation += w.factor * t.dissipation;
   }
 }
 
@@ -433,11 +507,23 @@ void SurfaceContactSet::commit() {
       warm.friction = f.slipping ? 2 : 1;
       warm.slip = item.slip + f.slip_increment;
       dissipated_ += item.factor * f.dissipation;
+      const Twist& t = twist_[k];
+      if (t.active) {
+        warm.twist_anchor = t.anchor;
+        warm.twist = t.slipping ? 2 : 1;
+        warm.twist_slip = item.twist_slip + t.slip_increment;
+        dissipated_ += item.factor * t.dissipation;
+      }
     } else if (any_friction_ && item.first_touch) {
       // Closed in this increment: anchored where it is, stuck.
       h = &item.history;
       warm.friction = 1;
       warm.slip = 0;
+      if (definitions_[item.definition]->torsional) {
+        warm.twist_anchor = item.history.twist;
+        warm.twist = 1;
+        warm.twist_slip = 0;
+      }
     }
     if (h) {
       warm.anchor_zeta_A = h->zeta_A;
@@ -472,6 +558,12 @@ std::vector<ContactPoint> SurfaceContactSet::points() const {
       p.tangential_force = w.factor * f.force;
       p.friction = f.slipping ? 2 : 1;
       p.slip = w.slip + f.slip_increment;
+      const Twist& t = twist_[k];
+      if (t.active) {
+        p.torque = w.factor * t.torque;
+        p.twist = t.slipping ? 2 : 1;
+        p.twist_slip = w.twist_slip + t.slip_increment;
+      }
     }
   }
   return out;
@@ -585,6 +677,9 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
   if (any_friction_) {
     sensitivity_.assign(work_.size(), {});
     friction_.assign(work_.size(), {});
+    twist_.assign(work_.size(), {});
+    if (any_torsional_)
+      torsion_.assign(work_.size(), {});
   }
 }
 

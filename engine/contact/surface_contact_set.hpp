@@ -4,13 +4,16 @@
 // from the FCL-backed search; the four-unknown local contact problem of every candidate in
 // parallel, warm-started from the last converged increment; Coulomb friction at the active
 // contact points of definitions that have it (contact/surface_friction.hpp: anchors committed
-// with converged increments); assembly of the active pairs' 24 x 24 blocks (translations and
-// rotations of the four end nodes) in sorted order.
+// with converged increments) and, where asked for, torsional friction at the crossings
+// (contact/surface_torsional_friction.hpp: twist anchors committed alike); assembly of the
+// active pairs' 24 x 24 blocks (translations and rotations of the four end nodes) in sorted
+// order.
 
 #include "broadphase/candidate_search.hpp"
 #include "contact/interface_law.hpp"
 #include "contact/surface_contact.hpp"
 #include "contact/surface_friction.hpp"
+#include "contact/surface_torsional_friction.hpp"
 #include "engine/contact/contact_set.hpp"
 
 #include <Eigen/Core>
@@ -28,10 +31,14 @@ public:
   ~SurfaceContactSet() override;
 
   bool update_candidates(const State& state) override;
-  /// Surface contact has no damping in this version (the constructor refuses a damped law):
-  /// `rates` is not used.
+  /// `rates` (dynamic steps, where a definition has tangential damping) feed the friction's
+  /// dashpot: the nodes' velocities and spatial angular velocities, as the kernel's DOF rates
+  /// (Rodrigues rates Xi(alpha)^-1 omega). The normal law has no damping on this contact in
+  /// this version (the constructor refuses a damped law).
   std::string project(const State& state, bool want_tangent,
                       const ContactRates* rates = nullptr) override;
+  /// Whether a definition has tangential damping (it needs the rates of dynamic steps).
+  bool damped() const { return damped_; }
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;
@@ -57,6 +64,11 @@ public:
       double anchor_zeta_A = 0, anchor_theta_A = 0, anchor_zeta_B = 0, anchor_theta_B = 0;
       double slip = 0;
       int friction = 0;
+      /// Torsional friction of that point (contact/surface_torsional_friction.hpp): the anchor
+      /// crossing angle (rad), the twist slip accumulated since it closed (rad), and twist = 1
+      /// stuck, 2 slipping, 0 none.
+      double twist_anchor = 0, twist_slip = 0;
+      int twist = 0;
     };
     /// A candidate, the scalar part of its last SurfaceContactResult and its share factor.
     struct Pair {
@@ -97,6 +109,7 @@ private:
     /// anchors it where it closed (as in SplineContactSet).
     contact::SurfaceFrictionHistory history{};
     double slip = 0;
+    double twist_slip = 0; ///< rad, accumulated before this increment (torsional friction)
     bool first_touch = false;
   };
   using Key = std::array<int, 3>; ///< definition, first, second segment id
@@ -125,6 +138,17 @@ private:
   /// active regular contact) and the friction result (active where it was evaluated).
   std::vector<contact::SurfaceContactSensitivity> sensitivity_;
   std::vector<contact::SurfaceFrictionResult> friction_;
+  bool any_torsional_ = false;
+  bool damped_ = false; ///< some definition has tangential damping
+  /// Per work item: the torsional result's scalars (active where it was evaluated; its residual
+  /// and tangent are added to friction_'s), and, where a definition has torsional friction, the
+  /// kernel's output buffer (its 24 x 24 tangent kept out of the parallel loop's stack).
+  struct Twist {
+    bool active = false, slipping = false;
+    double torque = 0, slip_increment = 0, dissipation = 0, energy = 0, anchor = 0;
+  };
+  std::vector<Twist> twist_;
+  std::vector<contact::SurfaceTorsionalFrictionResult> torsion_;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   int candidates_version_ = 0;
   ContactSummary summary_;

@@ -1545,19 +1545,9 @@ private:
              {"line_contact", "line_angle", "point_angle", "line_penalty", "gauss_points"})
           if (t.present(key))
             t.error(key, fmt::format("'{}' applies only to type = \"spline\"", key));
-        // Pointwise friction; no tangential damping and no torsional friction on this contact.
-        bool spline_only = false;
-        for (const char* key :
-             {"tangential_damping", "torsional_friction", "torsional_radius", "torsional_penalty"})
-          if (t.present(key)) {
-            t.error(key, fmt::format("'{}' applies only to type = \"spline\" (surface contact "
-                                     "friction is pointwise Coulomb friction alone in this "
-                                     "version)",
-                                     key));
-            spline_only = true;
-          }
-        if (!spline_only)
-          read_contact_friction(t, c.law, c.friction);
+        // Pointwise friction with its tangential damping, and torsional friction.
+        read_contact_friction(t, c.law, c.friction);
+        contact_damping_steps(t, 0, c.friction.tangential_damping);
         c.margin = t.number("margin").value_or(0);
         model_.surface_contacts.push_back(std::move(c));
         continue;

@@ -169,11 +169,13 @@ struct FrictionParameters {
   /// c_t, N s/m: a dashpot on the tangential sliding velocity beside the Coulomb element
   /// (contact/friction.hpp); dynamic steps only (the velocities of the time integrator).
   double tangential_damping = 0;
-  /// Torsional friction at crossings (contact/torsional_friction.hpp): a friction torque about
-  /// the normal, bounded by mu f_n rho, with the same coefficients.
+  /// Torsional friction at crossings (contact/torsional_friction.hpp,
+  /// contact/surface_torsional_friction.hpp): a friction torque about the normal, bounded by
+  /// mu f_n rho, with the same coefficients.
   bool torsional = false;
   /// rho, m; 0: per pair, footprint_radius(w_A, w_B) of the two splines' widths
-  /// (Spline::width, 2 radius where not given).
+  /// (Spline::width, 2 radius where not given), or of the two surfaces' widths 2 a
+  /// (Surface::a).
   double torsional_radius = 0;
   /// k_r, N m/rad; 0: tangential_penalty rho^2.
   double torsional_penalty = 0;
@@ -236,8 +238,9 @@ struct SurfaceContactDefinition {
   std::vector<int> group_a, group_b;
   InterfaceLawParameters law;
   double margin = 0; ///< m, broad-phase box inflation beyond the section; 0: the smaller semi-axis
-  /// Coulomb friction at the contact points (contact/surface_friction.hpp): the coefficients and
-  /// the tangential penalty; no tangential damping and no torsional friction on this contact.
+  /// Coulomb friction at the contact points (contact/surface_friction.hpp): the coefficients,
+  /// the tangential penalty, tangential damping (dynamic steps) and torsional friction at the
+  /// crossings (contact/surface_torsional_friction.hpp). The law's normal damping is refused.
   FrictionParameters friction{};
 };
 
@@ -360,6 +363,9 @@ inline bool has_friction(const Model& model) {
 /// Whether any contact of the model has torsional friction at its crossings.
 inline bool has_torsional_friction(const Model& model) {
   for (const SplineContactDefinition& c : model.spline_contacts)
+    if (c.friction.active() && c.friction.torsional)
+      return true;
+  for (const SurfaceContactDefinition& c : model.surface_contacts)
     if (c.friction.active() && c.friction.torsional)
       return true;
   return false;

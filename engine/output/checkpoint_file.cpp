@@ -151,6 +151,15 @@ void write_surface_contact(hid_t parent, const SurfaceContactSet::Snapshot& c) {
     values.insert(values.end(), {w.anchor_zeta_A, w.anchor_theta_A, w.anchor_zeta_B,
                                  w.anchor_theta_B, w.slip, static_cast<double>(w.friction)});
   write_table(g, "committed_friction", values, 6);
+  // Torsional friction (twist_anchor, twist_slip, twist state) and the summary's figures of it:
+  // written by versions with surface torsional friction; an older checkpoint has none.
+  values.clear();
+  for (const auto& w : c.committed)
+    values.insert(values.end(), {w.twist_anchor, w.twist_slip, static_cast<double>(w.twist)});
+  write_table(g, "committed_twist", values, 3);
+  h5::write_int_attribute(g, "summary_twist_stick", m.twist_stick);
+  h5::write_int_attribute(g, "summary_twist_slip", m.twist_slip);
+  h5::write_double_attribute(g, "summary_torque", m.torque);
   keys.clear();
   values.clear();
   std::vector<int> flags;
@@ -367,6 +376,22 @@ SurfaceContactSet::Snapshot read_surface_contact(hid_t parent) {
       if (w.friction < 0 || w.friction > 2)
         throw RestartError(fmt::format(
             "checkpoint: committed surface contact {} has friction state {}", i, w.friction));
+    }
+  }
+  if (h5::exists(g, "committed_twist")) {
+    m.twist_stick = h5::read_int_attribute(g, "summary_twist_stick");
+    m.twist_slip = h5::read_int_attribute(g, "summary_twist_slip");
+    m.torque = h5::read_double_attribute(g, "summary_torque");
+    const std::vector<double> twist =
+        read_table(g, "committed_twist", static_cast<long>(c.committed.size()), 3);
+    for (std::size_t i = 0; i < c.committed.size(); ++i) {
+      auto& w = c.committed[i];
+      w.twist_anchor = twist[3 * i];
+      w.twist_slip = twist[3 * i + 1];
+      w.twist = static_cast<int>(twist[3 * i + 2]);
+      if (w.twist < 0 || w.twist > 2)
+        throw RestartError(
+            fmt::format("checkpoint: committed surface contact {} has twist state {}", i, w.twist));
     }
   }
   keys = read_int_table(g, "pair_keys", 3);

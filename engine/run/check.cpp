@@ -32,6 +32,18 @@ std::string contact_set_line(const char* name, const ContactSet& set) {
                                               : std::string("none (no projection in range)"));
 }
 
+/// ", torsional friction at the crossings (...)" where a contact has it, else empty.
+std::string torsion_text(const FrictionParameters& f) {
+  if (!(f.active() && f.torsional))
+    return {};
+  return fmt::format(", torsional friction at the crossings (radius {}, penalty {})",
+                     f.torsional_radius > 0 ? fmt::format("{:.6g} mm", 1e3 * f.torsional_radius)
+                                            : std::string("from the yarn widths"),
+                     f.torsional_penalty > 0
+                         ? fmt::format("{:.6g} N mm/rad", 1e3 * f.torsional_penalty)
+                         : std::string("tangential penalty x radius^2"));
+}
+
 } // namespace
 
 std::string initial_clearance_line(const Simulation& sim) {
@@ -109,16 +121,7 @@ std::string check_report(const Model& model) {
                           1e3 * f.mu_static / f.tangential_penalty)
             : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, tangential penalty {:.6g} N/m",
                           f.mu_static, f.mu_kinetic, f.tangential_penalty);
-    const std::string torsion =
-        !(f.active() && f.torsional)
-            ? std::string()
-            : fmt::format(", torsional friction at the crossings (radius {}, penalty {})",
-                          f.torsional_radius > 0
-                              ? fmt::format("{:.6g} mm", 1e3 * f.torsional_radius)
-                              : std::string("from the yarn widths"),
-                          f.torsional_penalty > 0
-                              ? fmt::format("{:.6g} N mm/rad", 1e3 * f.torsional_penalty)
-                              : std::string("tangential penalty x radius^2"));
+    const std::string torsion = torsion_text(f);
     // Who touches whom: two groups, or one group within itself (its splines with each other,
     // and each spline with itself unless within_spline is off, as in a fabric's warp-warp).
     const std::string groups =
@@ -137,9 +140,9 @@ std::string check_report(const Model& model) {
             ? std::string(", frictionless")
             : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, tangential penalty {:.6g} N/m",
                           f.mu_static, f.mu_kinetic, f.tangential_penalty);
-    out +=
-        fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm{}\n", c.name,
-                    c.group_a.size(), c.group_b.size(), law_text(c.law), 1e3 * c.margin, friction);
+    out += fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm{}{}\n",
+                       c.name, c.group_a.size(), c.group_b.size(), law_text(c.law), 1e3 * c.margin,
+                       friction, torsion_text(f));
   }
   if (const ContactStage* contact = sim.contact()) {
     if (const SplineContactSet* s = contact->spline())

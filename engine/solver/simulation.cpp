@@ -1,4 +1,5 @@
 #include "engine/solver/simulation.hpp"
+#include "engine/contact/surface_contact_set.hpp"
 
 #include "engine/beam/nodal_terms.hpp"
 #include "engine/math/rotation.hpp"
@@ -331,6 +332,19 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
       contact_velocity_.col(i) = nm.a4 * (state_.x.col(i) - state_.x_n.col(i)) +
                                  nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
     rates = {&contact_velocity_, nm.a4};
+    if (contact_->surface() != nullptr && contact_->surface()->damped()) {
+      // The surface points turn with the nodes' sections: omega = Q(alpha) Q_n W, W Newmark's
+      // material angular velocity of the iterate (as the Rayleigh damping's above).
+      contact_angular_velocity_.resize(3, n);
+      for (int i = 0; i < n; ++i) {
+        Eigen::Vector3d W, A;
+        newmark_angular(nm, {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)},
+                        state_.alpha.col(i), W, A);
+        contact_angular_velocity_.col(i) =
+            rodrigues_rotation<double>(state_.alpha.col(i)) * state_.Q_n[i] * W;
+      }
+      rates.angular_velocity = &contact_angular_velocity_;
+    }
   }
   // The iteration's task graph: broad phase -> (narrow phase || beam assembly) -> contact
   // assembly.

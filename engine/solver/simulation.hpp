@@ -254,8 +254,10 @@ private:
   bool floor_reported_ = false;                     ///< the round-off floor notice was given
   Eigen::VectorXd damping_velocity_;                ///< 6 n_nodes, stiffness damping's velocities
   Eigen::Matrix3Xd contact_velocity_; ///< 3 x n_nodes, m/s: the iterate's, for contact damping
-  Eigen::VectorXd rhs_;               ///< minus the residual over the free equations
-  Eigen::VectorXd equation_weight_;   ///< per free equation: 1 / shortest element (m^-1) or 1
+  /// 3 x n_nodes, rad/s: the iterate's spatial angular velocities, for surface contact damping.
+  Eigen::Matrix3Xd contact_angular_velocity_;
+  Eigen::VectorXd rhs_;             ///< minus the residual over the free equations
+  Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1
   int total_iterations_ = 0;
   StageTimes stage_times_;
   double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();

@@ -412,15 +412,6 @@ public:
                                        "this version)");
     if (contact) {
       read_contact_friction(*contact, law, friction);
-      if (formulation == ContactFormulation::Surface)
-        for (const char* spline_only :
-             {"tangential_damping", "torsional_friction", "torsional_radius", "torsional_penalty"})
-          if (contact->present(spline_only))
-            contact->error(spline_only,
-                           fmt::format("'{}' applies only to type = \"spline\" (surface contact "
-                                       "friction is pointwise Coulomb friction alone in this "
-                                       "version)",
-                                       spline_only));
       // Contact damping acts through the velocities of implicit dynamic steps.
       for (const auto& [damping, value] : {std::pair<const char*, double>{"damping", law.damping},
                                            {"tangential_damping", friction.tangential_damping}}) {

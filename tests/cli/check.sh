@@ -34,6 +34,12 @@ check explicit "$repo/examples/biaxial-k1-explicit.toml" \
 check surface "$repo/examples/biaxial-surface-k1.toml" \
   "^  surface contact 'warp-weft': 6 x 6 surfaces, linear, penalty 350000 N/m" \
   "^  surface contact at the initial configuration: [1-9][0-9]* candidate pair(s)" "^surface contact: initial clearance"
+# With torsional friction on the surface contact: said in its line.
+sed 's/^friction = 0.2 .*/friction = 0.2\ntorsional_friction = true/' \
+  "$repo/examples/biaxial-surface-k1-friction.toml" > surface-torsion.toml
+check surface-torsion surface-torsion.toml \
+  "^  surface contact 'warp-weft': .*, friction mu_s = 0.2, mu_k = 0.2, tangential penalty 350000 N/m, torsional friction at the crossings (radius from the yarn widths, penalty tangential penalty x radius^2)$"
+rm -f surface-torsion.toml
 check rollup "$repo/examples/rollup.toml" "^model: [0-9]* nodes" "^contact definitions: 0" "^  step 1: static"
 grep -q "clearance" rollup.log && { echo "FAIL rollup: a clearance line without contact"; fail=1; }
 ls | grep -qv '\.log$' && { echo "FAIL: check left files behind: $(ls)"; fail=1; }

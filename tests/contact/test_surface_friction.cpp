@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <memory>
 #include <random>
@@ -455,6 +456,96 @@ TEST(SurfaceFriction, TangentMatchesCentralDifferencesInsideTheEndWindow) {
 /// at 1e-8 m the default step tolerance (1e-12) leaves 4e-7 (2e-9 at 1e-14); at 1e-10 m the steps
 /// must stay below the depth (a tenth of it here), and the error measured grows as 1 / step there
 /// (rounding in the re-solved projections, 5e-6 at depth / 300), not from the tangent.
+/// Tangential damping (CoulombFriction::c_t with SurfacePairRates): the tangent against central
+/// differences of the residual, the rates moved with the DOFs (dv/dd = velocity_per_displacement),
+/// in stick and slip, with and without a damped normal law, in and out of the end window; and
+/// the undamped results bitwise unchanged by rates with c_t = 0 or by c_t without rates.
+TEST(SurfaceFriction, DampedTangentMatchesCentralDifferencesInStickAndSlip) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const LinearPenalty linear(kEps);
+  const DampedLaw damped(std::make_shared<LinearPenalty>(kEps), 20.0);
+  double worst[2] = {0.0, 0.0};
+  int tested = 0;
+  int windowed = 0;
+  int attempts = 0;
+  while (tested < 12 && ++attempts < 400) {
+    const double m = tested % 4 == 3 ? 4.0 : 2.0;
+    Pair p = random_crossing(rng, m);
+    const double gap = -(2e-6 + 8e-6 * (0.5 + 0.5 * u(rng)));
+    const bool near_end = tested % 3 == 2;
+    if (!(near_end ? place_near_end(p, 0.88 + 0.08 * u(rng), gap) : place(p, gap))) {
+      continue;
+    }
+    const InterfaceLaw& law = tested % 2 == 1 ? static_cast<const InterfaceLaw&>(damped) : linear;
+    SurfacePairRates rates;
+    for (int i = 0; i < 24; ++i) {
+      rates.rate(i) = (i % 12 < 6 ? 0.01 : 10.0) * u(rng);
+    }
+    rates.velocity_per_displacement = 0.5 / (0.3 * 1e-4);
+    const SurfaceContactResult c = solve(p, law, {}, &rates);
+    if (!(c.share > 0.0) || !c.active || c.degeneration != SurfaceDegeneration::None) {
+      continue;
+    }
+    ++tested;
+    windowed += c.share < 1.0 ? 1 : 0;
+    const bool slip = tested % 2 == 0;
+    const double mu = 0.3;
+    const Anchored a = anchored(rng, p, linear, false, true, mu, slip ? 2.0 : 0.5);
+    const double c_t = 30.0; // N s/m: c_t |v_t| comparable to mu f_n
+    const CoulombFriction friction(mu, mu, a.eps_t, c_t);
+    auto run = [&](const Pair& q, const SurfacePairRates* r, const CoulombFriction& law_t,
+                   const SurfaceProjectionStart& start) {
+      Evaluation e;
+      const SuperEllipticalCylinder A = q.A();
+      const SuperEllipticalCylinder B = q.B();
+      surface_contact(A, B, start, law, e.contact, {}, r, &e.sensitivity);
+      surface_friction(A, B, e.contact, &e.sensitivity, a.history, law_t, e.friction, {}, r);
+      return e;
+    };
+    const Evaluation e0 = run(p, &rates, friction, {});
+    ASSERT_TRUE(e0.friction.active);
+    EXPECT_GT(e0.friction.sliding_velocity.norm(), 0.0);
+    EXPECT_LT(std::abs(e0.friction.sliding_velocity.dot(e0.contact.normal)),
+              1e-12 * e0.friction.sliding_velocity.norm());
+    {
+      // Undamped: rates with c_t = 0, or c_t without rates, leave the results bitwise alone.
+      const CoulombFriction undamped(mu, mu, a.eps_t);
+      const Evaluation plain = run(p, &rates, undamped, {});
+      const Evaluation norates = run(p, nullptr, friction, {});
+      const Evaluation reference = run(p, nullptr, undamped, {});
+      EXPECT_EQ(plain.friction.sliding_velocity, Vector3d::Zero());
+      EXPECT_EQ(norates.friction.residual, reference.friction.residual);
+      EXPECT_EQ(norates.friction.tangent, reference.friction.tangent);
+      EXPECT_EQ(plain.friction.history.zeta_A, e0.friction.history.zeta_A);
+    }
+    const SurfaceProjectionStart warm = warm_start(e0.contact);
+    Mat24 fd;
+    for (int i = 0; i < 24; ++i) {
+      fd.col(i) = richardson(p, i, 1e-6 * dof_scale(i), [&](const Pair& q, double step) {
+        SurfacePairRates moved = rates;
+        moved.rate(i) += rates.velocity_per_displacement * step;
+        const Evaluation e = run(q, &moved, friction, warm);
+        EXPECT_EQ(e.contact.status, ProjectionStatus::Converged);
+        EXPECT_EQ(e.friction.slipping, e0.friction.slipping);
+        return Vec24(e.friction.residual);
+      });
+    }
+    EXPECT_EQ(e0.friction.slipping, slip);
+    const double error = scaled_error(fd, e0.friction.tangent, true);
+    EXPECT_LT(error, 1e-6) << "configuration " << tested << " slip " << slip << " share "
+                           << c.share;
+    worst[slip ? 1 : 0] = std::max(worst[slip ? 1 : 0], error);
+  }
+  EXPECT_EQ(tested, 12);
+  EXPECT_GE(windowed, 2);
+  std::printf("surface friction with tangential damping: tangent against central differences, "
+              "worst %.2e in stick, %.2e in slip (%d of %d in an end window)\n",
+              worst[0], worst[1], windowed, tested);
+  RecordProperty("worst_error_stick", scientific(worst[0]));
+  RecordProperty("worst_error_slip", scientific(worst[1]));
+}
+
 TEST(SurfaceFriction, TangentMatchesCentralDifferencesAtTinyAndDeepPenetrations) {
   std::mt19937 rng(17);
   const LinearPenalty law(kEps);

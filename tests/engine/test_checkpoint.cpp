@@ -13,6 +13,7 @@
 #include "engine/textile/weave.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <atomic>
 #include <chrono>
@@ -153,6 +154,14 @@ void expect_same_surface_checkpoints(const Recorder& straight, std::size_t k,
       EXPECT_EQ(p.committed[i].zeta_B, q.committed[i].zeta_B);
       EXPECT_EQ(p.committed[i].theta_B, q.committed[i].theta_B);
       EXPECT_EQ(p.committed[i].active, q.committed[i].active);
+      // Friction histories: the pointwise anchor and the twist anchor (torsional friction).
+      EXPECT_EQ(p.committed[i].anchor_zeta_A, q.committed[i].anchor_zeta_A);
+      EXPECT_EQ(p.committed[i].anchor_theta_B, q.committed[i].anchor_theta_B);
+      EXPECT_EQ(p.committed[i].slip, q.committed[i].slip);
+      EXPECT_EQ(p.committed[i].friction, q.committed[i].friction);
+      EXPECT_EQ(p.committed[i].twist_anchor, q.committed[i].twist_anchor);
+      EXPECT_EQ(p.committed[i].twist_slip, q.committed[i].twist_slip);
+      EXPECT_EQ(p.committed[i].twist, q.committed[i].twist);
     }
     ASSERT_EQ(p.pairs.size(), q.pairs.size());
     for (std::size_t i = 0; i < p.pairs.size(); ++i) {
@@ -162,6 +171,9 @@ void expect_same_surface_checkpoints(const Recorder& straight, std::size_t k,
     }
     EXPECT_EQ(p.summary.potential, q.summary.potential);
     EXPECT_EQ(p.summary.min_gap, q.summary.min_gap);
+    EXPECT_EQ(p.summary.dissipation, q.summary.dissipation);
+    EXPECT_EQ(p.summary.torque, q.summary.torque);
+    EXPECT_EQ(p.dissipated, q.dissipated);
   }
 }
 
@@ -299,6 +311,58 @@ TEST_F(Checkpoint, SurfaceContactFabricThroughTheFileGoesOnBitForBit) {
   SimulationCheckpoint stripped = straight.checkpoints[k];
   stripped.surface_contact.reset();
   EXPECT_THROW(Simulation(m, {}, stripped), std::invalid_argument);
+}
+
+TEST_F(Checkpoint,
+       SurfaceContactFabricWithTorsionalFrictionIsBitwiseTheSameOnTwoThreadsAndAfterARestart) {
+  // The 3 x 3 weave of the test above from examples/biaxial-surface-k1-friction.toml (mu = 0.2),
+  // with torsional friction at the crossings (contact/surface_torsional_friction.hpp): on one and
+  // two threads, and restarted through checkpoint.h5 from an increment with twist anchors.
+  Model m =
+      example("biaxial-surface-k1-friction.toml", {{"n_warp", "3"},
+                                                   {"n_weft", "3"},
+                                                   {"length_warp", "18.18182e-3"},
+                                                   {"length_weft", "18.18182e-3"},
+                                                   {"elements_per_spacing", "2"},
+                                                   {"friction", "0.2\ntorsional_friction = true"},
+                                                   {"max_strain", "0.003"},
+                                                   {"loading_time", "0.1"}});
+  ASSERT_EQ(m.surface_contacts.size(), 1u);
+  ASSERT_TRUE(m.surface_contacts[0].friction.torsional);
+  auto run = [&](int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    Recorder r;
+    Simulation(m).run(&r);
+    return r;
+  };
+  const Recorder one = run(1);
+  const Recorder two = run(2);
+  ASSERT_GE(one.increments.size(), 6u);
+  ASSERT_EQ(one.increments.size(), two.increments.size());
+  // The whole run on two threads: the continuation of one's from before its first increment.
+  Recorder two_shifted;
+  two_shifted.increments.assign(two.increments.begin() + 1, two.increments.end());
+  two_shifted.checkpoints.assign(two.checkpoints.begin() + 1, two.checkpoints.end());
+  EXPECT_TRUE(same_bits(one.increments[0].x, two.increments[0].x));
+  expect_same_continuation(one, 0, two_shifted);
+  expect_same_surface_checkpoints(one, 0, two_shifted);
+  // Twist anchors committed (stick or slip) in the checkpoint the restart starts from.
+  std::size_t k = one.increments.size() / 2;
+  const auto twisted = [&](std::size_t i) {
+    int n = 0;
+    for (const auto& w : one.checkpoints[i].surface_contact->committed)
+      n += w.twist != 0;
+    return n;
+  };
+  while (k + 2 < one.increments.size() && twisted(k) == 0)
+    ++k;
+  ASSERT_GT(twisted(k), 0);
+  output::write_checkpoint(dir, one.checkpoints[k], {3, {}, "torsion"});
+  const output::StoredCheckpoint stored = output::read_checkpoint(dir);
+  Recorder restarted;
+  Simulation(m, {}, stored.simulation).run(&restarted);
+  expect_same_continuation(one, k, restarted);
+  expect_same_surface_checkpoints(one, k, restarted);
 }
 
 TEST_F(Checkpoint, ExplicitSurfaceContactStepGoesOnBitForBit) {

@@ -1017,20 +1017,57 @@ TEST(DeckSurfaces, SurfacesAndSurfaceContactsResolveToIndices) {
   EXPECT_EQ(m.spline_contacts.size(), 2u);
 }
 
-TEST(DeckSurfaces, SurfaceContactFrictionIsReadAndItsSplineOnlyKeysRefused) {
+TEST(DeckSurfaces, SurfaceContactFrictionIsReadWithItsTangentialDamping) {
   const Model m =
       read_deck_string(kSurfaces + "static_friction = 0.3\nkinetic_friction = 0.2\n", "deck.toml");
   const FrictionParameters& f = m.surface_contacts[0].friction;
   EXPECT_DOUBLE_EQ(f.mu_static, 0.3);
   EXPECT_DOUBLE_EQ(f.mu_kinetic, 0.2);
   EXPECT_DOUBLE_EQ(f.tangential_penalty, 3.5e5); // the linear law's penalty
-  for (const char* key : {"torsional_friction = true", "tangential_damping = 1.0"}) {
-    const auto errors = errors_of(kSurfaces + "friction = 0.2\n" + key + "\n");
-    ASSERT_EQ(errors.size(), 1u) << key << joined(errors);
-    EXPECT_TRUE(has(errors, "applies only to type = \"spline\" (surface contact friction is "
-                            "pointwise Coulomb friction alone in this version)"))
-        << joined(errors);
-  }
+  EXPECT_FALSE(f.torsional);
+  EXPECT_EQ(f.tangential_damping, 0.0);
+  // Tangential damping acts on the velocities of dynamic steps, as on the spline contact.
+  const auto errors = errors_of(kSurfaces + "friction = 0.2\ntangential_damping = 1.0\n");
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_TRUE(has(errors, "contact damping acts on the velocities of dynamic steps"))
+      << joined(errors);
+  // On a dynamic step (the beam section given a mass; the rod's comes from its material).
+  const std::string dynamic_deck =
+      replace(replace(kSurfaces, "type = \"static\"", "type = \"dynamic\""), "GJ = 1.0",
+              "GJ = 1.0\nrhoA = 1.0");
+  const Model dynamic =
+      read_deck_string(dynamic_deck + "friction = 0.2\ntangential_damping = 1.0\n", "deck.toml");
+  EXPECT_DOUBLE_EQ(dynamic.surface_contacts[0].friction.tangential_damping, 1.0);
+  // The normal law's damping stays the spline contact's.
+  const auto normal = errors_of(dynamic_deck + "damping = 1.0\n");
+  ASSERT_EQ(normal.size(), 1u) << joined(normal);
+  EXPECT_TRUE(has(normal, "surface contact damping is not available in this version"))
+      << joined(normal);
+}
+
+TEST(DeckSurfaces, SurfaceContactTorsionalFrictionIsReadWithItsChecks) {
+  const Model m =
+      read_deck_string(kSurfaces + "friction = 0.2\ntorsional_friction = true\n", "deck.toml");
+  const FrictionParameters& f = m.surface_contacts[0].friction;
+  EXPECT_TRUE(f.torsional);
+  EXPECT_EQ(f.torsional_radius, 0.0); // the defaults: from the widths, eps_t rho^2
+  EXPECT_EQ(f.torsional_penalty, 0.0);
+  const Model set = read_deck_string(kSurfaces + "friction = 0.2\ntorsional_friction = true\n"
+                                                 "torsional_radius = 0.004\n"
+                                                 "torsional_penalty = 0.5\n",
+                                     "deck.toml");
+  EXPECT_DOUBLE_EQ(set.surface_contacts[0].friction.torsional_radius, 0.004);
+  EXPECT_DOUBLE_EQ(set.surface_contacts[0].friction.torsional_penalty, 0.5);
+  // The spline contact's checks: the radius and penalty only with torsional friction, and
+  // positive.
+  const auto without = errors_of(kSurfaces + "friction = 0.2\ntorsional_radius = 0.004\n");
+  ASSERT_EQ(without.size(), 1u) << joined(without);
+  EXPECT_TRUE(has(without, "'torsional_radius' applies only with torsional_friction = true"))
+      << joined(without);
+  const auto negative =
+      errors_of(kSurfaces + "friction = 0.2\ntorsional_friction = true\ntorsional_penalty = -1\n");
+  ASSERT_EQ(negative.size(), 1u) << joined(negative);
+  EXPECT_TRUE(has(negative, "torsional_penalty")) << joined(negative);
 }
 
 TEST(DeckSurfaces, AllSurfaceErrorsAreReportedAtOnce) {

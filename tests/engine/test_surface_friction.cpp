@@ -13,6 +13,7 @@
 
 #include <tbb/global_control.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -147,6 +148,109 @@ TEST(SurfaceFriction, DraggedSliderSticksThenSlipsWithAStaticPeak) {
   }
   EXPECT_TRUE(peaked);
   EXPECT_GE(slipping, 3);
+}
+
+/// Tangential damping on a dynamic step (contact/surface_friction.hpp: the nodes' velocities and
+/// angular velocities reach the surface contact as the kernel's DOF rates): the drag above with a
+/// dashpot c_t beside the Coulomb element. In slip the drag force is mu N + c_t v exactly, v the
+/// slider's Newmark velocity at the increment (it rings about du/dt, and the force with it).
+TEST(SurfaceFriction, TangentialDampingAddsCTimesTheSlidingVelocityOnDynamicSteps) {
+  const double mu = 0.3, c_t = 50.0, t_end = 2.0;
+  const TimeTable drag{{0.0, 1.0, t_end}, {0.0, 0.0, 0.02}};
+  Drag d = drag_model(mu, mu, drag, t_end, 0.02);
+  d.model.surface_contacts[0].friction.tangential_damping = c_t;
+  d.model.steps[1].type = StepType::Dynamic;
+  Simulation sim(d.model);
+  struct Damped final : SimulationObserver {
+    const Drag& d;
+    std::vector<double> force, velocity;
+    std::vector<std::vector<double>> residuals;
+    int slipping = 0;
+    explicit Damped(const Drag& drag) : d(drag) {}
+    void on_increment(const Simulation& s, const IncrementReport& r) override {
+      if (r.time <= 1.0 + 1e-12)
+        return;
+      double rx = 0;
+      for (int node : d.slider)
+        rx += s.reactions()(0, node);
+      force.push_back(rx);
+      velocity.push_back(s.state().v_n(0, d.slider[0]));
+      residuals.push_back(r.residual_history);
+      slipping += s.contact()->summary().slip;
+    }
+  } rec(d);
+  sim.run(&rec);
+  ASSERT_EQ(rec.force.size(), 50u);
+  EXPECT_EQ(rec.slipping, 50);
+  double spread = 0, worst = 0;
+  int most_iterations = 0;
+  for (std::size_t k = 0; k < rec.force.size(); ++k) {
+    const double expected = mu * kNormal + c_t * rec.velocity[k];
+    EXPECT_NEAR(rec.force[k], expected, 1e-8 * mu * kNormal)
+        << "increment " << k << ", v = " << rec.velocity[k];
+    worst = std::max(worst, std::abs(rec.force[k] - expected) / (mu * kNormal));
+    spread = std::max(spread, std::abs(rec.velocity[k] - 0.02));
+    most_iterations = std::max(most_iterations, static_cast<int>(rec.residuals[k].size()) - 1);
+  }
+  std::printf("surface friction with tangential damping: drag force against mu N + c_t v, worst "
+              "%.2e relative to mu N; velocities ring by up to %.2e m/s about du/dt; at most %d "
+              "Newton iterations\n",
+              worst, spread, most_iterations);
+  // The test sees the dashpot: the velocities differ from du/dt and the force with them.
+  EXPECT_GT(spread, 1e-3);
+  EXPECT_GT(c_t * 0.02, 0.5 * mu * kNormal);
+}
+
+/// The same with the slider also rolled about its own axis (y) by a prescribed rotation: its
+/// contact point then moves at v - omega r along x (omega its Newmark angular velocity), which the
+/// dashpot sees only through the nodes' angular velocities (the surface points turn with the
+/// sections). In slip the drag force is mu N + c_t (v - omega r).
+TEST(SurfaceFriction, TangentialDampingSeesTheSectionsTurnOnDynamicSteps) {
+  const double mu = 0.3, c_t = 50.0, t_end = 2.0;
+  const TimeTable drag{{0.0, 1.0, t_end}, {0.0, 0.0, 0.02}};
+  const TimeTable roll{{0.0, 1.0, t_end}, {0.0, 0.0, 0.5}}; // rad: 5 mm of the surface
+  Drag d = drag_model(mu, mu, drag, t_end, 0.02);
+  d.model.surface_contacts[0].friction.tangential_damping = c_t;
+  d.model.steps[1].type = StepType::Dynamic;
+  d.model.constraints[1] = Constraint{1, {false, true, false, false, false, false}};
+  const TimeTable zero{{0.0, t_end}, {0.0, 0.0}};
+  d.model.prescribed[0].rotation = std::array<TimeTable, 3>{zero, roll, zero};
+  Simulation sim(d.model);
+  struct Rolled final : SimulationObserver {
+    const Drag& d;
+    std::vector<double> force, velocity, omega;
+    int slipping = 0;
+    explicit Rolled(const Drag& drag) : d(drag) {}
+    void on_increment(const Simulation& s, const IncrementReport& r) override {
+      if (r.time <= 1.0 + 1e-12)
+        return;
+      double rx = 0;
+      for (int node : d.slider)
+        rx += s.reactions()(0, node);
+      force.push_back(rx);
+      const int mid = d.slider[d.slider.size() / 2];
+      velocity.push_back(s.state().v_n(0, mid));
+      // Spatial angular velocity about y (the rotation is about y alone).
+      omega.push_back((s.state().Q_n[mid] * s.state().W_n.col(mid)).y());
+      slipping += s.contact()->summary().slip;
+    }
+  } rec(d);
+  sim.run(&rec);
+  ASSERT_EQ(rec.force.size(), 50u);
+  EXPECT_EQ(rec.slipping, 50);
+  double worst = 0, roll_part = 0;
+  for (std::size_t k = 0; k < rec.force.size(); ++k) {
+    const double sliding = rec.velocity[k] - rec.omega[k] * kRadius;
+    const double expected = mu * kNormal + c_t * sliding;
+    EXPECT_NEAR(rec.force[k], expected, 1e-8 * mu * kNormal)
+        << "increment " << k << ", v = " << rec.velocity[k] << ", omega = " << rec.omega[k];
+    worst = std::max(worst, std::abs(rec.force[k] - expected) / (mu * kNormal));
+    roll_part = std::max(roll_part, std::abs(c_t * rec.omega[k] * kRadius));
+  }
+  std::printf("surface friction with tangential damping, rolled slider: drag force against mu N + "
+              "c_t (v - omega r), worst %.2e relative to mu N; the roll's part up to %.3f N\n",
+              worst, roll_part);
+  EXPECT_GT(roll_part, 0.1 * mu * kNormal); // the roll's part is seen, not lost in the tolerance
 }
 
 /// The slider dragged 0.15 m: past the rail's node at x = 1/8 m, where the contact passes from

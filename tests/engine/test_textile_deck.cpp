@@ -130,19 +130,27 @@ TEST(FabricDeck, ContactFrictionReachesTheWarpWeftContact) {
     EXPECT_DOUBLE_EQ(s.width, 2 * t.sections[t.elements[element].section].a) << s.name;
     EXPECT_GT(s.width, 2 * s.radius) << s.name; // flat yarns: wider than the contact circle
   }
-  // Surface contact: pointwise friction reaches its definition; torsional friction is the
-  // spline contact's alone (said, not dropped).
+  // Surface contact: pointwise friction, its tangential damping and torsional friction reach its
+  // definition.
   const Model surface = read_deck_string(
       std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n", "fabric.toml");
   ASSERT_EQ(surface.surface_contacts.size(), 1u);
   EXPECT_DOUBLE_EQ(surface.surface_contacts[0].friction.mu_static, 0.2);
   EXPECT_DOUBLE_EQ(surface.surface_contacts[0].friction.tangential_penalty,
                    surface.surface_contacts[0].law.penalty);
+  const Model twisted =
+      read_deck_string(std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n"
+                                             "torsional_friction = true\ntorsional_radius = 3e-4\n",
+                       "fabric.toml");
+  ASSERT_EQ(twisted.surface_contacts.size(), 1u);
+  EXPECT_TRUE(twisted.surface_contacts[0].friction.torsional);
+  EXPECT_DOUBLE_EQ(twisted.surface_contacts[0].friction.torsional_radius, 3e-4);
+  // Tangential damping: on dynamic tests only, as on the spline contact.
   const auto e = errors_of(std::string(kValid) + "[contact]\ntype = \"surface\"\nfriction = 0.2\n"
-                                                 "torsional_friction = true\n");
+                                                 "tangential_damping = 1.0\n");
   ASSERT_EQ(e.size(), 1u) << joined(e);
-  EXPECT_NE(e[0].find("contact.torsional_friction: 'torsional_friction' applies only to type = "
-                      "\"spline\""),
+  EXPECT_NE(e[0].find("contact.tangential_damping: contact damping acts on the velocities of "
+                      "dynamic steps"),
             std::string::npos)
       << e[0];
   // On the explicit path too (its energy balance counts the dissipation); its contact damping
