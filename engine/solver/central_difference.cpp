@@ -412,9 +412,33 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
                   std::max({flexibility[side], 1 / mass(node), J3 > 0 ? reach * reach / J3 : 0.0});
             }
         }
+      // Torsional friction: k_r on the crossing angle, which a node turns by up to |dx| / h
+      // (h the shortest element) or a section by its rotation (a force at the reach).
+      double torsion = 0;
+      if (def.friction.active() && def.friction.torsional) {
+        double h = std::numeric_limits<double>::infinity(), w = 0, reach = 0;
+        for (const std::vector<int>* group : {&def.group_a, &def.group_b})
+          for (int g : *group) {
+            const Surface& surface = model.surfaces[g];
+            w = std::max(w, 2 * surface.a);
+            reach = std::max({reach, surface.a, surface.b});
+            for (int e : surface.elements)
+              h = std::min(h, (model.nodes[model.elements[e].nodes[2]] -
+                               model.nodes[model.elements[e].nodes[0]])
+                                  .norm());
+          }
+        const double rho = def.friction.torsional_radius > 0 ? def.friction.torsional_radius
+                                                             : contact::footprint_radius(w, w);
+        const double k_r = def.friction.torsional_penalty > 0
+                               ? def.friction.torsional_penalty
+                               : def.friction.tangential_penalty * rho * rho;
+        const double lever = std::min(h, reach);
+        if (lever > 0 && std::isfinite(lever))
+          torsion = k_r / (lever * lever);
+      }
       if (flexibility[0] > 0 && flexibility[1] > 0)
         consider(def.name, def.law, def.friction, 1 / flexibility[0], 1 / flexibility[1], r_min,
-                 0.0);
+                 torsion);
     }
   }
 
