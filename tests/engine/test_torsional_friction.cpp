@@ -244,26 +244,28 @@ TEST(TorsionalFrictionEngine, NewtonConvergesQuadraticallyInSlip) {
   Recorder rec(t, turn);
   sim.run(&rec);
   const std::vector<Sample>& samples = rec.samples;
-  int checked = 0, iterating = 0;
+  int checked = 0, rated = 0;
   for (const Sample& s : samples) {
     if (s.time <= 1.0 || s.contact.twist_slip != 1)
       continue;
     const std::vector<double>& r = s.residuals;
+    // Between 1e-2 and 1e-8: this model's residual stagnates at its round-off level, 1e-10 to
+    // 2e-10 relative, where one more iteration only confirms it.
     for (std::size_t k = 1; k + 1 < r.size(); ++k)
-      if (r[k] > 1e-12 && r[k] < 1e-2) {
+      if (r[k] > 1e-8 && r[k] < 1e-2) {
         EXPECT_LT(std::log10(r[k + 1]), 2 * std::log10(r[k]) + 1.5)
             << "t = " << s.time << ", iteration " << k;
+        ++rated;
       }
     EXPECT_LE(r.size(), 7u) << "t = " << s.time;
     ++checked;
-    iterating += r.size() >= 3 ? 1 : 0;
     std::printf("t = %.2f, twist slip %d:", s.time, s.contact.twist_slip);
     for (double v : r)
       std::printf(" %.1e", v);
     std::printf("\n");
   }
   EXPECT_GT(checked, 5);
-  EXPECT_GT(iterating, 5); // increments that took Newton iterations
+  EXPECT_GT(rated, 5); // iterations whose rate was checked
 }
 
 } // namespace
