@@ -74,10 +74,11 @@ int main(int argc, char** argv) {
   run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   run->add_option("--linear-solver", solver,
                   "Linear solver: auto (default: lu with applied moments or friction, ldlt-gmres "
-                  "with surface contact, ldlt otherwise), lu (UMFPACK), ldlt (the symmetric "
-                  "part) or ldlt-gmres (the full tangent by GMRES on the symmetric part's LDL^T, "
-                  "lu where that does not converge)")
-      ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres"}));
+                  "with surface contact, otherwise ldlt, or mumps from 500 000 equations), lu "
+                  "(UMFPACK), ldlt (the symmetric part), ldlt-gmres (the full tangent by GMRES "
+                  "on the symmetric part's LDL^T, lu where that does not converge) or mumps (the "
+                  "symmetric part by MUMPS, multifrontal)")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres", "mumps"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
   run->add_flag("--timings", timings,
                 "At the end, the wall time of each stage of the Newton iterations (broad and "
@@ -107,8 +108,8 @@ int main(int argc, char** argv) {
   study->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   study
       ->add_option("--linear-solver", solver,
-                   "Linear solver: auto, lu, ldlt or ldlt-gmres, as for 'run'")
-      ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres"}));
+                   "Linear solver: auto, lu, ldlt, ldlt-gmres or mumps, as for 'run'")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres", "mumps"}));
   study->add_flag("--quiet,-q", quiet, "No progress line");
 
   std::string check_deck;

@@ -84,6 +84,8 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
       kind = LinearSolverKind::LU;
     else if (!model.surface_contacts.empty())
       kind = LinearSolverKind::LDLTGmres;
+    else if (mumps_available() && assembler_->n_equations() >= kMumpsEquations)
+      kind = LinearSolverKind::MUMPS; // a large symmetric system: multifrontal beats simplicial
     else
       kind = LinearSolverKind::LDLTSymmetric;
   }

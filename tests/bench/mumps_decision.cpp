@@ -1,36 +1,28 @@
-// The decision benchmark of issue "Beyond one machine" (item 1): the factorisation and solve of
-// the tangent of an n x n weave of the paper's fabric (the biaxial k = 1 test after its first
-// increment of 1 ms: every candidate pair in the pattern) with today's solver, the LDL^T of the
-// symmetric part (engine/solver/linear_solver.cpp, Eigen SimplicialLDLT on the METIS ordering),
-// and with MUMPS's LDL^T of the same symmetric matrix (SYM = 2, symmetric indefinite) on the
-// same METIS ordering handed in (ICNTL(7) = 1), analysed once, on the MPI ranks this program is
-// started on (`mpirun -np 1 | 2 mumps_decision N`), its dense fronts on the BLAS behind
-// libblas.so.3 (OpenBLAS on the project's machines, scripts/setup).
-//
-// Rank 0 builds the model, runs the first increment and assembles the tangent K (free
-// equations); b = K 1 (so x = 1 is the exact solution of the symmetric system's neighbour;
-// agreement is measured between the two solvers' x). Each factorisation is timed `repeats`
-// times (default 3) and the fastest kept. Output, one line per solver:
-//   solver ranks n equations nonzeros(lower) analysis_s factorisation_s solve_s memory_MB
+// The second half of the decision benchmark of issue "Beyond one machine" (item 1): MUMPS's LDL^T
+// (SYM = 2, symmetric indefinite) of the tangent weave_tangent.cpp wrote (the symmetric part's
+// lower triangle of an n x n weave's tangent, b and `ldlt`'s solution), on the METIS ordering
+// `ldlt` uses, handed in (ICNTL(7) = 1), analysed once, on the MPI ranks this program is started
+// on (`mpirun -np 1 | 2 mumps_decision N FILE`), its fronts on the BLAS behind libblas.so.3
+// (OpenBLAS on the project's machines, scripts/setup). It does not link the engine: the engine's
+// sequential MUMPS brings a stand-in MPI library that would clash with OpenMPI here.
+// Output, one line:
+//   mumps ranks n equations nonzeros(lower) analysis_s factorisation_s solve_s memory_MB
 //   relative_residual relative_difference_to_ldlt
-// memory: LDL^T the factor's entries (values and row indices, 12 bytes each) plus its
-// column pointers; MUMPS INFOG(22), the total memory its factorisation used over all ranks.
-#include "engine/solver/linear_solver.hpp"
-#include "engine/solver/simulation.hpp"
-#include "engine/textile/biaxial.hpp"
-#include "engine/textile/weave.hpp"
-
+// memory: INFOG(22), the total memory MUMPS's factorisation used over all ranks. The fastest of
+// `repeats` factorisations (default 3).
 #include <iostream> // Eigen/MetisSupport uses std::cerr without including it
 
 #include <Eigen/MetisSupport>
-#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
 #include <dmumps_c.h>
 #include <mpi.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <string>
 #include <vector>
@@ -43,22 +35,16 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-/// The tangent of the n x n weave's biaxial k = 1 test after its first increment of 1 ms.
-yarnsim::SparseMatrix weave_tangent(int n) {
-  using namespace yarnsim;
-  textile::WeaveParameters p = textile::paper_fabric();
-  p.n_warp = p.n_weft = n;
-  p.length_warp = (n + 3) * p.spacing_weft; // as scripts/bench's weaves
-  p.length_weft = (n + 3) * p.spacing_warp;
-  textile::Fabric f = textile::build_weave(p);
-  textile::BiaxialParameters b;
-  b.monitors = false;
-  textile::add_biaxial_test(f, b);
-  f.model.steps.back().end_time = 1e-3;
-  f.model.steps.back().dt_initial = f.model.steps.back().dt_max = 1e-3;
-  Simulation sim(f.model);
-  sim.run();
-  return sim.assembler().matrix();
+using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+
+template <class T>
+std::vector<T> read_array(std::ifstream& in) {
+  std::int64_t count = 0;
+  in.read(reinterpret_cast<char*>(&count), sizeof count);
+  std::vector<T> out(static_cast<std::size_t>(in && count > 0 ? count : 0));
+  in.read(reinterpret_cast<char*>(out.data()),
+          static_cast<std::streamsize>(out.size() * sizeof(T)));
+  return out;
 }
 
 // MUMPS's 1-based control arrays.
@@ -86,64 +72,50 @@ int main(int argc, char** argv) {
   int rank = 0, ranks = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &ranks);
-  if (argc < 2) {
+  if (argc < 3) {
     if (rank == 0)
-      std::fprintf(stderr, "usage: mpirun -np R mumps_decision N [repeats]\n");
+      std::fprintf(stderr, "usage: mpirun -np R mumps_decision N FILE [repeats]\n");
     MPI_Finalize();
     return 2;
   }
   const int n = std::atoi(argv[1]);
-  const int repeats = argc > 2 ? std::max(1, std::atoi(argv[2])) : 3;
+  const int repeats = argc > 3 ? std::max(1, std::atoi(argv[3])) : 3;
 
-  // Rank 0: the matrix, the ordering, the LDL^T reference.
-  yarnsim::SparseMatrix lower; // lower triangle of the symmetric part
+  // Rank 0: the matrix weave_tangent wrote, and the METIS ordering `ldlt` uses.
+  SparseMatrix lower; // lower triangle of the symmetric part
   std::vector<int> irn, jcn, perm_in;
   std::vector<double> values;
   Eigen::VectorXd rhs, x_ldlt;
   if (rank == 0) {
-    const yarnsim::SparseMatrix K = weave_tangent(n);
-    const yarnsim::SparseMatrix Kt = K.transpose();
-    const yarnsim::SparseMatrix S = 0.5 * (K + Kt);
-    lower = S.triangularView<Eigen::Lower>();
-    rhs = K * Eigen::VectorXd::Ones(K.rows());
-
-    // Today's solver, timed the way a Newton run uses it.
-    auto solver = yarnsim::make_linear_solver(yarnsim::LinearSolverKind::LDLTSymmetric);
-    Clock::time_point t0 = Clock::now();
-    solver->analyze(K);
-    const double analysis = seconds_since(t0);
-    double factorisation = std::numeric_limits<double>::infinity();
-    for (int r = 0; r < repeats; ++r) {
-      t0 = Clock::now();
-      solver->factorize(K);
-      factorisation = std::min(factorisation, seconds_since(t0));
+    std::ifstream in(argv[2], std::ios::binary);
+    std::int64_t rows = 0;
+    in.read(reinterpret_cast<char*>(&rows), sizeof rows);
+    const std::vector<int> outer = read_array<int>(in), inner = read_array<int>(in);
+    const std::vector<double> entries = read_array<double>(in), b = read_array<double>(in),
+                              x = read_array<double>(in);
+    if (!in || rows <= 0 || outer.size() != static_cast<std::size_t>(rows + 1) ||
+        b.size() != static_cast<std::size_t>(rows) || x.size() != b.size()) {
+      std::fprintf(stderr, "mumps_decision: %s is not a tangent written by weave_tangent\n",
+                   argv[2]);
+      MPI_Abort(MPI_COMM_WORLD, 2);
     }
-    t0 = Clock::now();
-    x_ldlt = solver->solve(rhs);
-    const double solve = seconds_since(t0);
-    // The factor's size: an LDL^T of the same ordering, for its count only.
-    Eigen::SimplicialLDLT<yarnsim::SparseMatrix, Eigen::Lower, Eigen::MetisOrdering<int>> probe;
-    probe.analyzePattern(lower);
-    probe.factorize(lower);
-    const double factor_entries =
-        static_cast<double>(probe.matrixL().nestedExpression().nonZeros());
-    const double memory = (12.0 * factor_entries + 4.0 * K.rows()) / (1024.0 * 1024.0);
-    const double residual = (S * x_ldlt - rhs).norm() / rhs.norm();
-    std::printf("ldlt 1 %d %ld %ld %.4f %.4f %.4f %.1f %.3e 0\n", n, (long)K.rows(),
-                (long)lower.nonZeros(), analysis, factorisation, solve, memory, residual);
-
-    // The same METIS ordering for MUMPS: PERM_IN(i) = the position of variable i (1-based).
-    yarnsim::SparseMatrix full;
+    lower = Eigen::Map<const SparseMatrix>(rows, rows, static_cast<Eigen::Index>(entries.size()),
+                                           outer.data(), inner.data(), entries.data());
+    rhs = Eigen::Map<const Eigen::VectorXd>(b.data(), rows);
+    x_ldlt = Eigen::Map<const Eigen::VectorXd>(x.data(), rows);
+    // PERM_IN(i) = the position of variable i (1-based) in the ordering Eigen's
+    // SimplicialLDLT<..., MetisOrdering> (and so `ldlt`) computes on the full pattern.
+    SparseMatrix full;
     full = lower.selfadjointView<Eigen::Lower>();
     Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> inverse;
     Eigen::MetisOrdering<int> ordering;
     ordering(full, inverse);
     const Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> forward = inverse.inverse();
-    perm_in.resize(static_cast<std::size_t>(K.rows()));
-    for (Eigen::Index i = 0; i < K.rows(); ++i)
+    perm_in.resize(static_cast<std::size_t>(rows));
+    for (Eigen::Index i = 0; i < rows; ++i)
       perm_in[static_cast<std::size_t>(i)] = forward.indices()(i) + 1;
     for (Eigen::Index j = 0; j < lower.outerSize(); ++j)
-      for (yarnsim::SparseMatrix::InnerIterator it(lower, j); it; ++it) {
+      for (SparseMatrix::InnerIterator it(lower, j); it; ++it) {
         irn.push_back(static_cast<int>(it.row()) + 1);
         jcn.push_back(static_cast<int>(it.col()) + 1);
         values.push_back(it.value());
@@ -188,7 +160,7 @@ int main(int argc, char** argv) {
   mumps_call(id, 3, "solve");
   const double solve = seconds_since(t0);
   if (rank == 0) {
-    const yarnsim::SparseMatrix S = lower.selfadjointView<Eigen::Lower>();
+    const SparseMatrix S = lower.selfadjointView<Eigen::Lower>();
     const double residual = (S * x - rhs).norm() / rhs.norm();
     const double difference = (x - x_ldlt).norm() / x_ldlt.norm();
     std::printf("mumps %d %d %ld %ld %.4f %.4f %.4f %d %.3e %.3e\n", ranks, n, (long)lower.rows(),

@@ -40,7 +40,7 @@ check no-such-file 2 "no-such-file.toml"
 # eigen-lu is no longer a choice: CLI11 refuses it and lists the valid ones.
 "$yarnsim" run "$repo/examples/rollup.toml" -o eigen-lu -q --linear-solver eigen-lu > eigen-lu.log 2>&1
 [ $? -eq 2 ] || { echo "FAIL --linear-solver eigen-lu: exit not 2"; cat eigen-lu.log; fail=1; }
-grep -q "eigen-lu not in {auto,lu,ldlt,ldlt-gmres}" eigen-lu.log || { echo "FAIL --linear-solver eigen-lu: message does not list the choices"; cat eigen-lu.log; fail=1; }
+grep -q "eigen-lu not in {auto,lu,ldlt,ldlt-gmres,mumps}" eigen-lu.log || { echo "FAIL --linear-solver eigen-lu: message does not list the choices"; cat eigen-lu.log; fail=1; }
 [ -e eigen-lu ] && { echo "FAIL --linear-solver eigen-lu: an output folder was made"; fail=1; }
 if [ "$fail" -eq 0 ]; then echo "deck errors: all checks passed"; fi
 exit "$fail"

@@ -2,7 +2,9 @@
 // solver on the symmetric part's LDL^T gives the full non-symmetric system's solution whether
 // its Krylov iteration converges (a nearly symmetric matrix) or it falls back to the LU (a far
 // from symmetric matrix, a singular symmetric part).
+#include "beam_models.hpp"
 #include "engine/solver/linear_solver.hpp"
+#include "engine/solver/simulation.hpp"
 
 #include <gtest/gtest.h>
 
@@ -97,7 +99,68 @@ TEST(LinearSolver, LDLTGmresKeepsSolvingAcrossIterationsAndAttempts) {
   }
 }
 
+/// An indefinite symmetric n x n matrix: the banded S with every fifth diagonal entry negative
+/// (a tangent under compression or with a soft mode has negative pivots).
+SparseMatrix indefinite(int n, std::mt19937& rng) {
+  SparseMatrix A = banded(n, 0.0, rng);
+  for (int i = 0; i < n; i += 5)
+    A.coeffRef(i, i) = -A.coeffRef(i, i);
+  return A;
+}
+
+TEST(LinearSolver, MumpsSolvesTheSymmetricPartAsLDLTDoes) {
+  if (!mumps_available())
+    GTEST_SKIP() << "this build has no MUMPS";
+  std::mt19937 rng(11);
+  const int n = 600;
+  auto mumps = make_linear_solver(LinearSolverKind::MUMPS);
+  EXPECT_EQ(mumps->name(), "mumps");
+  // Indefinite symmetric, then nearly symmetric (MUMPS, as ldlt, solves the symmetric part), the
+  // second factorisation on the first's analysis, then a new pattern analysed afresh.
+  for (int round = 0; round < 3; ++round) {
+    const SparseMatrix A =
+        round == 0 ? indefinite(n, rng) : banded(round == 1 ? n : n + 7, 1e-3, rng);
+    const SparseMatrix S = 0.5 * (A + SparseMatrix(A.transpose()));
+    const Eigen::VectorXd b =
+        Eigen::VectorXd::NullaryExpr(A.rows(), [&] { return 1.0 + rng() % 7; });
+    if (round != 1)
+      mumps->analyze(A);
+    mumps->factorize(A);
+    const Eigen::VectorXd x = mumps->solve(b);
+    const Eigen::VectorXd reference = solve_with(LinearSolverKind::LDLTSymmetric, A, b);
+    EXPECT_LT(relative_residual(S, x, b), 1e-12) << "round " << round;
+    EXPECT_LT((x - reference).norm(), 1e-10 * reference.norm()) << "round " << round;
+  }
+  // A singular symmetric part is an error with MUMPS's code, not a wrong answer.
+  SparseMatrix singular = banded(50, 0.0, rng);
+  singular.coeffRef(7, 7) = 0.0;
+  for (int k = 1; k <= 3; ++k) {
+    singular.coeffRef(7, 7 + k) = singular.coeffRef(7 + k, 7) = 0.0;
+    singular.coeffRef(7, 7 - k) = singular.coeffRef(7 - k, 7) = 0.0;
+  }
+  auto fresh = make_linear_solver(LinearSolverKind::MUMPS);
+  fresh->analyze(singular);
+  EXPECT_THROW(fresh->factorize(singular), LinearSolverError);
+}
+
+TEST(LinearSolver, AutoTakesMumpsForLargeSymmetricModels) {
+  // A clamped beam of m elements has 12 m free equations: 'auto' takes ldlt below
+  // kMumpsEquations and mumps from there on (where this build has MUMPS).
+  const Section s = test::stiffness_section(1e4, 1e4, 1.0, 1.0);
+  const int first = (kMumpsEquations + 11) / 12; // the fewest elements with as many equations
+  for (const int elements : {first - 1, first}) {
+    Model m = test::straight_beam({0, 0, 0}, {1, 0, 0}, elements, s);
+    m.constraints.push_back(test::clamp(1)); // "start"
+    m.steps.push_back(test::static_step(1.0, 1.0));
+    const Simulation sim(m);
+    const bool large = sim.assembler().n_equations() >= kMumpsEquations;
+    EXPECT_EQ(large, elements == first);
+    EXPECT_EQ(sim.linear_solver_name(), large && mumps_available() ? "mumps" : "ldlt");
+  }
+}
+
 TEST(LinearSolver, NamesAreParsedAndUnknownOnesListTheChoices) {
+  EXPECT_EQ(linear_solver_kind_from("mumps"), LinearSolverKind::MUMPS);
   EXPECT_EQ(linear_solver_kind_from("ldlt-gmres"), LinearSolverKind::LDLTGmres);
   EXPECT_EQ(linear_solver_kind_from("lu"), LinearSolverKind::LU);
   try {
