@@ -277,7 +277,17 @@ public:
     const double* s = sym_.matrix().valuePtr();
     for (std::size_t k = 0; k < source_.size(); ++k)
       values_[k] = s[source_[k]];
-    call(2, "factorisation");
+    // Delayed pivots of an indefinite matrix can need more working space than the analysis
+    // estimated (INFOG(1) = -8 or -9): doubled, up to three times, as MUMPS's guide advises.
+    for (int retry = 0;; ++retry) {
+      id_.job = 2;
+      dmumps_c(&id_);
+      const bool space = id_.infog[0] == -8 || id_.infog[0] == -9;
+      if (!space || retry == 3)
+        break;
+      icntl(14) = 2 * icntl(14) + 20;
+    }
+    check("factorisation");
   }
   Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
     Eigen::VectorXd x = b;
@@ -294,6 +304,9 @@ private:
   void call(int job, const char* what) {
     id_.job = job;
     dmumps_c(&id_);
+    check(what);
+  }
+  void check(const char* what) const {
     const int info = id_.infog[0], detail = id_.infog[1];
     if (info < 0)
       throw LinearSolverError(fmt::format("MUMPS {} failed (INFOG(1) = {}, INFOG(2) = {}){}", what,
