@@ -1007,6 +1007,14 @@ void CentralDifference::resume(const ExplicitProgress& p) {
   prescribed_start_ = p.prescribed_start;
   energy_floor_ = p.energy_floor;
   kick_work_ = p.kick_work;
+  // The inertia part of the restored reactions, as the evaluation at p.time after the step of
+  // status_.dt wrote it in the run that saved the checkpoint: the first increment's reaction
+  // work leaves it out.
+  for (int i = 0; i < n_; ++i)
+    for (int c = 0; c < 3; ++c) {
+      const TimeTable* table = prescribed_u_[3 * i + c];
+      inertia_(c, i) = table ? sim_.mass_(i) * table_second_rate(*table, time_, status_.dt) : 0.0;
+    }
 }
 
 ExplicitProgress CentralDifference::progress() const {
