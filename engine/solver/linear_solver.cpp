@@ -154,6 +154,20 @@ private:
   bool use_ldlt_ = false;
 };
 
+using Permutation = Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int>;
+
+/// The ordering Eigen's SimplicialLDLT<..., MetisOrdering> computes for the symmetric matrix whose
+/// lower triangle is `lower`: METIS on the full symmetric pattern. Returns the inverse
+/// permutation (position -> variable), as Eigen's ordering does.
+Permutation metis_inverse_permutation(const SparseMatrix& lower) {
+  SparseMatrix full;
+  full = lower.selfadjointView<Eigen::Lower>();
+  Permutation inverse;
+  Eigen::MetisOrdering<int> ordering;
+  ordering(full, inverse);
+  return inverse;
+}
+
 /// LDL^T of the symmetric part (Eigen SimplicialLDLT, METIS ordering). The METIS permutation and
 /// the permuted upper triangle's pattern are made once per pattern, with the index of the
 /// symmetric part's entry that fills each of its entries; a factorisation then gathers the values
@@ -165,14 +179,7 @@ class SymmetricLDLTSolver final : public LinearSolver {
 public:
   void analyze(const SparseMatrix& A) override {
     sym_.analyze(A);
-    // The ordering Eigen's SimplicialLDLT<..., MetisOrdering> computes: on the full symmetric
-    // pattern; it returns the inverse permutation.
-    {
-      SparseMatrix full;
-      full = sym_.matrix().selfadjointView<Eigen::Lower>();
-      Eigen::MetisOrdering<int> ordering;
-      ordering(full, inverse_permutation_);
-    }
+    inverse_permutation_ = metis_inverse_permutation(sym_.matrix());
     permutation_ = inverse_permutation_.inverse();
     // The permuted upper triangle with, as values, the index of the entry of the symmetric
     // part's lower triangle that lands there (exact in a double below 2^53 entries).
@@ -206,7 +213,7 @@ public:
 
 private:
   SymmetricPart sym_;
-  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> permutation_, inverse_permutation_;
+  Permutation permutation_, inverse_permutation_;
   SparseMatrix permuted_;   ///< upper triangle of P S P^T, S the symmetric part
   std::vector<int> source_; ///< per entry of permuted_: the entry of S it takes
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, Eigen::NaturalOrdering<int>> ldlt_;
@@ -242,13 +249,7 @@ public:
     sym_.analyze(A);
     const SparseMatrix& S = sym_.matrix();
     {
-      SparseMatrix full;
-      full = S.selfadjointView<Eigen::Lower>();
-      Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> inverse;
-      Eigen::MetisOrdering<int> ordering;
-      ordering(full, inverse);
-      const Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> forward =
-          inverse.inverse();
+      const Permutation forward = metis_inverse_permutation(S).inverse();
       perm_in_.resize(static_cast<std::size_t>(A.rows()));
       for (Eigen::Index i = 0; i < A.rows(); ++i)
         perm_in_[static_cast<std::size_t>(i)] = forward.indices()(i) + 1; // 1-based position
