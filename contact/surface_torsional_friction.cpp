@@ -274,26 +274,22 @@ void evaluate_law(const JetT<H, 24>& theta, const SurfaceContactResult& contact,
                   SurfaceTorsionalFrictionResult& out) {
   const double w = contact.share;
   const double k = w * law.k_r(); // the pair's penalty, N m/rad
-  const double mu = history.twist_stuck ? law.mu_s() : law.mu_k();
-  const double twist = std::remainder(theta.v - history.twist, 2.0 * std::numbers::pi);
-  const double limit = mu * contact.force * law.rho(); // N m, f_n = w f
-  const double phi = k * std::abs(twist) - limit;
+  // f_n = w f, contact.force: the pair's share of the normal force.
+  const TwistReturn r =
+      twist_return(theta.v, history.twist, history.twist_stuck, k, contact.force, law);
+  const double mu = r.mu, twist = r.twist, m = r.torque;
   out.active = true;
   out.mu = mu;
   out.angle = theta.v;
   out.elastic_twist = twist;
-  out.slip_function = phi;
-  out.slipping = phi > 0.0;
+  out.slip_function = r.slip_function;
+  out.slipping = r.slipping;
   out.stuck = !out.slipping;
-  double m = k * twist;
-  if (out.slipping) {
-    m = std::copysign(limit, twist);
-    out.anchor = std::remainder(theta.v - m / k, 2.0 * std::numbers::pi);
-    out.slip_increment = std::abs(twist) - limit / k;
-    out.dissipation = limit * out.slip_increment;
-  }
+  out.anchor = r.anchor;
+  out.slip_increment = r.slip_increment;
+  out.dissipation = r.dissipation;
   out.torque = m;
-  out.energy = m * m / (2.0 * k);
+  out.energy = r.energy;
   out.residual = m * theta.g;
   if constexpr (H > 0) {
     out.tangent = m * theta.h;

@@ -35,32 +35,51 @@ bool regular_point(const SplineContactResult& contact) {
          contact.point_share == 1.0 && contact.line_points == 0;
 }
 
+} // namespace
+
+TwistReturn twist_return(double theta, double anchor, bool stuck, double k, double f_n,
+                         const TorsionalFriction& law) {
+  TwistReturn r;
+  r.mu = stuck ? law.mu_s() : law.mu_k();
+  r.twist = std::remainder(theta - anchor, 2.0 * std::numbers::pi);
+  r.limit = r.mu * f_n * law.rho(); // N m
+  r.slip_function = k * std::abs(r.twist) - r.limit;
+  r.slipping = r.slip_function > 0.0;
+  r.anchor = anchor;
+  double m = k * r.twist;
+  if (r.slipping) {
+    m = std::copysign(r.limit, r.twist);
+    r.anchor = std::remainder(theta - m / k, 2.0 * std::numbers::pi);
+    r.slip_increment = std::abs(r.twist) - r.limit / k;
+    r.dissipation = r.limit * r.slip_increment;
+  }
+  r.torque = m;
+  r.energy = m * m / (2.0 * k);
+  return r;
+}
+
+namespace {
+
 /// The law and the residual; the tangent where J carries a Hessian.
 template <int H>
 void evaluate(const JetT<H>& theta, double f_n, const SplineContactSensitivity* sensitivity,
               const FrictionHistory& history, const TorsionalFriction& law,
               TorsionalFrictionResult& out) {
   const double k_r = law.k_r();
-  const double mu = history.twist_stuck ? law.mu_s() : law.mu_k();
-  const double twist = std::remainder(theta.v - history.twist, 2.0 * std::numbers::pi);
-  const double limit = mu * f_n * law.rho(); // N m
-  const double phi = k_r * std::abs(twist) - limit;
+  const TwistReturn r = twist_return(theta.v, history.twist, history.twist_stuck, k_r, f_n, law);
+  const double mu = r.mu, twist = r.twist, m = r.torque;
   out.active = true;
   out.mu = mu;
   out.angle = theta.v;
   out.elastic_twist = twist;
-  out.slip_function = phi;
-  out.slipping = phi > 0.0;
+  out.slip_function = r.slip_function;
+  out.slipping = r.slipping;
   out.stuck = !out.slipping;
-  double m = k_r * twist;
-  if (out.slipping) {
-    m = std::copysign(limit, twist);
-    out.anchor = std::remainder(theta.v - m / k_r, 2.0 * std::numbers::pi);
-    out.slip_increment = std::abs(twist) - limit / k_r;
-    out.dissipation = limit * out.slip_increment;
-  }
+  out.anchor = r.anchor;
+  out.slip_increment = r.slip_increment;
+  out.dissipation = r.dissipation;
   out.torque = m;
-  out.energy = m * m / (2.0 * k_r);
+  out.energy = r.energy;
   out.residual = m * theta.g;
   if constexpr (H > 0) {
     out.tangent = m * theta.h;

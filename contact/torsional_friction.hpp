@@ -79,6 +79,27 @@ double crossing_angle(const Eigen::Matrix3d& control_A, const SegmentBasis& basi
                       const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B,
                       const SplineContactResult& contact);
 
+/// The law of the file's comment for one crossing, the scalars both contact formulations share
+/// (surface_torsional_friction.hpp scales the penalty by its share).
+struct TwistReturn {
+  double mu = 0.0;             ///< mu_s if the twist stuck in the committed state, else mu_k
+  double twist = 0.0;          ///< trial dtheta = theta - theta^s, wrapped to (-pi, pi], rad
+  double limit = 0.0;          ///< mu f_n rho, N m
+  double slip_function = 0.0;  ///< k |dtheta| - mu f_n rho, N m
+  bool slipping = false;       ///< slip_function > 0
+  double torque = 0.0;         ///< m, N m
+  double anchor = 0.0;         ///< theta^s to commit (returned onto the cone in slip), rad
+  double slip_increment = 0.0; ///< |dtheta| - limit / k in slip, rad
+  double dissipation = 0.0;    ///< limit times the slip increment, J
+  double energy = 0.0;         ///< m^2 / (2 k), J
+};
+
+/// The return mapping of the crossing angle `theta` (rad) against the committed anchor
+/// `anchor` (rad) and stick flag `stuck`: penalty k (N m/rad), normal force f_n (N), the
+/// coefficients and rho of `law`.
+TwistReturn twist_return(double theta, double anchor, bool stuck, double k, double f_n,
+                         const TorsionalFriction& law);
+
 /// Torsional friction state, residual and tangent of one crossing. The 18 DOFs are those of
 /// SplineContactResult (A's three control points, then B's, each x, y, z).
 struct TorsionalFrictionResult {
