@@ -278,18 +278,7 @@ void evaluate_law(const JetT<H, 24>& theta, const SurfaceContactResult& contact,
   const TwistReturn r =
       twist_return(theta.v, history.twist, history.twist_stuck, k, contact.force, law);
   const double mu = r.mu, twist = r.twist, m = r.torque;
-  out.active = true;
-  out.mu = mu;
-  out.angle = theta.v;
-  out.elastic_twist = twist;
-  out.slip_function = r.slip_function;
-  out.slipping = r.slipping;
-  out.stuck = !out.slipping;
-  out.anchor = r.anchor;
-  out.slip_increment = r.slip_increment;
-  out.dissipation = r.dissipation;
-  out.torque = m;
-  out.energy = r.energy;
+  set_twist_result(r, theta.v, out);
   out.residual = m * theta.g;
   if constexpr (H > 0) {
     out.tangent = m * theta.h;

@@ -68,18 +68,7 @@ void evaluate(const JetT<H>& theta, double f_n, const SplineContactSensitivity* 
   const double k_r = law.k_r();
   const TwistReturn r = twist_return(theta.v, history.twist, history.twist_stuck, k_r, f_n, law);
   const double mu = r.mu, twist = r.twist, m = r.torque;
-  out.active = true;
-  out.mu = mu;
-  out.angle = theta.v;
-  out.elastic_twist = twist;
-  out.slip_function = r.slip_function;
-  out.slipping = r.slipping;
-  out.stuck = !out.slipping;
-  out.anchor = r.anchor;
-  out.slip_increment = r.slip_increment;
-  out.dissipation = r.dissipation;
-  out.torque = m;
-  out.energy = r.energy;
+  set_twist_result(r, theta.v, out);
   out.residual = m * theta.g;
   if constexpr (H > 0) {
     out.tangent = m * theta.h;
@@ -103,6 +92,13 @@ TorsionalFriction::TorsionalFriction(double mu_s, double mu_k, double k_r, doubl
         << " N m/rad, rho = " << rho << " m";
     throw std::invalid_argument(msg.str());
   }
+}
+
+TorsionalFriction torsional_law(double mu_s, double mu_k, double eps_t, double radius,
+                                double penalty, double width_A, double width_B) {
+  const double rho = radius > 0 ? radius : footprint_radius(width_A, width_B);
+  const double k_r = penalty > 0 ? penalty : eps_t * rho * rho;
+  return {mu_s, mu_k, k_r, rho};
 }
 
 double footprint_radius(double width_A, double width_B) {

@@ -72,6 +72,13 @@ private:
 /// the footprint), m. For a square of side w: w (sqrt 2 + ln(1 + sqrt 2)) / 6 = 0.383 w.
 double footprint_radius(double width_A, double width_B);
 
+/// The torsional law of a crossing of yarns of widths `width_A`, `width_B` (m) from a contact's
+/// settings: rho = `radius` (m), or footprint_radius(width_A, width_B) where it is 0; k_r =
+/// `penalty` (N m/rad), or eps_t rho^2 (eps_t the tangential penalty, N/m) where it is 0. The
+/// defaults of docs/input.md, for both contact formulations and the explicit stable step.
+TorsionalFriction torsional_law(double mu_s, double mu_k, double eps_t, double radius,
+                                double penalty, double width_A, double width_B);
+
 /// Crossing angle theta (see the file's comment) of the point contact `contact` (regular and
 /// active, on the segments `basis_A`, `basis_B` with control points `control_A`, `control_B`),
 /// rad in (-pi, pi]: the anchor of a crossing that has just closed.
@@ -99,6 +106,25 @@ struct TwistReturn {
 /// coefficients and rho of `law`.
 TwistReturn twist_return(double theta, double anchor, bool stuck, double k, double f_n,
                          const TorsionalFriction& law);
+
+/// Copies the law's scalars of `r` and the angle `theta` (rad) into a kernel's result `out`
+/// (TorsionalFrictionResult, SurfaceTorsionalFrictionResult: the same fields) and marks it
+/// active.
+template <class Result>
+void set_twist_result(const TwistReturn& r, double theta, Result& out) {
+  out.active = true;
+  out.mu = r.mu;
+  out.angle = theta;
+  out.elastic_twist = r.twist;
+  out.slip_function = r.slip_function;
+  out.slipping = r.slipping;
+  out.stuck = !r.slipping;
+  out.anchor = r.anchor;
+  out.slip_increment = r.slip_increment;
+  out.dissipation = r.dissipation;
+  out.torque = r.torque;
+  out.energy = r.energy;
+}
 
 /// Torsional friction state, residual and tangent of one crossing. The 18 DOFs are those of
 /// SplineContactResult (A's three control points, then B's, each x, y, z).

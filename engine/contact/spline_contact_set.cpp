@@ -38,9 +38,8 @@ struct SplineContactSet::Definition {
 
   /// The torsional law of a pair of splines of widths wa, wb (m): FrictionParameters' defaults.
   contact::TorsionalFriction torsion(double wa, double wb) const {
-    const double rho = torsional_radius > 0 ? torsional_radius : contact::footprint_radius(wa, wb);
-    const double k_r = torsional_penalty > 0 ? torsional_penalty : friction->eps_t() * rho * rho;
-    return {friction->mu_s(), friction->mu_k(), k_r, rho};
+    return contact::torsional_law(friction->mu_s(), friction->mu_k(), friction->eps_t(),
+                                  torsional_radius, torsional_penalty, wa, wb);
   }
 };
 

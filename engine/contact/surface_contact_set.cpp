@@ -34,9 +34,8 @@ struct SurfaceContactSet::Definition {
   /// The torsional law of a pair of surfaces of widths wa, wb (m, twice the semi-axis a):
   /// FrictionParameters' defaults, as SplineContactSet's.
   contact::TorsionalFriction torsion(double wa, double wb) const {
-    const double rho = torsional_radius > 0 ? torsional_radius : contact::footprint_radius(wa, wb);
-    const double k_r = torsional_penalty > 0 ? torsional_penalty : friction->eps_t() * rho * rho;
-    return {friction->mu_s(), friction->mu_k(), k_r, rho};
+    return contact::torsional_law(friction->mu_s(), friction->mu_k(), friction->eps_t(),
+                                  torsional_radius, torsional_penalty, wa, wb);
   }
 };
 

@@ -51,6 +51,16 @@ void write_table(hid_t group, const std::string& name, const std::vector<int>& v
   h5::write_dataset(group, name, std::span<const int>(values), dims);
 }
 
+/// The torsional friction history of committed contact points (spline or surface: the same
+/// fields): a table of (twist_anchor rad, twist_slip rad, twist state 0/1/2) per point.
+template <class Committed>
+void write_committed_twist(hid_t group, const std::vector<Committed>& committed) {
+  std::vector<double> values;
+  for (const Committed& w : committed)
+    values.insert(values.end(), {w.twist_anchor, w.twist_slip, static_cast<double>(w.twist)});
+  write_table(group, "committed_twist", values, 3);
+}
+
 void write_status(hid_t object, const std::string& prefix, const ExplicitStatus& s) {
   h5::write_double_attribute(object, prefix + "critical_dt", s.critical_dt);
   h5::write_double_attribute(object, prefix + "stable_dt", s.stable_dt);
@@ -96,11 +106,8 @@ void write_contact(hid_t parent, const SplineContactSet::Snapshot& c) {
     values.insert(values.end(), {w.anchor_A, w.anchor_B, w.slip, static_cast<double>(w.friction)});
   write_table(g, "committed_friction", values, 4);
   h5::write_double_attribute(g, "friction_dissipated", c.dissipated);
-  // Torsional friction (twist_anchor, twist_slip, twist state): written by versions with it.
-  values.clear();
-  for (const auto& w : c.committed)
-    values.insert(values.end(), {w.twist_anchor, w.twist_slip, static_cast<double>(w.twist)});
-  write_table(g, "committed_twist", values, 3);
+  // Torsional friction: written by versions with it.
+  write_committed_twist(g, c.committed);
   keys.clear();
   values.clear();
   std::vector<int> flags;
@@ -153,10 +160,7 @@ void write_surface_contact(hid_t parent, const SurfaceContactSet::Snapshot& c) {
   write_table(g, "committed_friction", values, 6);
   // Torsional friction (twist_anchor, twist_slip, twist state) and the summary's figures of it:
   // written by versions with surface torsional friction; an older checkpoint has none.
-  values.clear();
-  for (const auto& w : c.committed)
-    values.insert(values.end(), {w.twist_anchor, w.twist_slip, static_cast<double>(w.twist)});
-  write_table(g, "committed_twist", values, 3);
+  write_committed_twist(g, c.committed);
   h5::write_int_attribute(g, "summary_twist_stick", m.twist_stick);
   h5::write_int_attribute(g, "summary_twist_slip", m.twist_slip);
   h5::write_double_attribute(g, "summary_torque", m.torque);
@@ -214,6 +218,23 @@ std::vector<double> read_table(hid_t group, const std::string& name, long rows,
                                    fmt::join(dims, ", "), rows >= 0 ? std::to_string(rows) : "n",
                                    columns));
   return v;
+}
+
+/// Reads write_committed_twist's table into `committed` (already sized), checking the states;
+/// `what` names the contact in the error ("contact", "surface contact").
+template <class Committed>
+void read_committed_twist(hid_t group, std::vector<Committed>& committed, const char* what) {
+  const std::vector<double> twist =
+      read_table(group, "committed_twist", static_cast<long>(committed.size()), 3);
+  for (std::size_t i = 0; i < committed.size(); ++i) {
+    Committed& w = committed[i];
+    w.twist_anchor = twist[3 * i];
+    w.twist_slip = twist[3 * i + 1];
+    w.twist = static_cast<int>(twist[3 * i + 2]);
+    if (w.twist < 0 || w.twist > 2)
+      throw RestartError(
+          fmt::format("checkpoint: committed {} {} has twist state {}", what, i, w.twist));
+  }
 }
 
 std::vector<int> read_int_table(hid_t group, const std::string& name, std::size_t columns) {
@@ -291,19 +312,8 @@ SplineContactSet::Snapshot read_contact(hid_t parent) {
     }
     c.dissipated = h5::read_double_attribute(g, "friction_dissipated");
   }
-  if (h5::exists(g, "committed_twist")) {
-    const std::vector<double> twist =
-        read_table(g, "committed_twist", static_cast<long>(c.committed.size()), 3);
-    for (std::size_t i = 0; i < c.committed.size(); ++i) {
-      auto& w = c.committed[i];
-      w.twist_anchor = twist[3 * i];
-      w.twist_slip = twist[3 * i + 1];
-      w.twist = static_cast<int>(twist[3 * i + 2]);
-      if (w.twist < 0 || w.twist > 2)
-        throw RestartError(
-            fmt::format("checkpoint: committed contact {} has twist state {}", i, w.twist));
-    }
-  }
+  if (h5::exists(g, "committed_twist"))
+    read_committed_twist(g, c.committed, "contact");
   keys = read_int_table(g, "pair_keys", 3);
   const long n = static_cast<long>(keys.size() / 3);
   const std::vector<int> flags = read_int_table(g, "pair_flags", 4);
@@ -382,17 +392,7 @@ SurfaceContactSet::Snapshot read_surface_contact(hid_t parent) {
     m.twist_stick = h5::read_int_attribute(g, "summary_twist_stick");
     m.twist_slip = h5::read_int_attribute(g, "summary_twist_slip");
     m.torque = h5::read_double_attribute(g, "summary_torque");
-    const std::vector<double> twist =
-        read_table(g, "committed_twist", static_cast<long>(c.committed.size()), 3);
-    for (std::size_t i = 0; i < c.committed.size(); ++i) {
-      auto& w = c.committed[i];
-      w.twist_anchor = twist[3 * i];
-      w.twist_slip = twist[3 * i + 1];
-      w.twist = static_cast<int>(twist[3 * i + 2]);
-      if (w.twist < 0 || w.twist > 2)
-        throw RestartError(
-            fmt::format("checkpoint: committed surface contact {} has twist state {}", i, w.twist));
-    }
+    read_committed_twist(g, c.committed, "surface contact");
   }
   keys = read_int_table(g, "pair_keys", 3);
   const long n = static_cast<long>(keys.size() / 3);

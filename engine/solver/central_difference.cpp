@@ -166,6 +166,13 @@ void committed_history(const BeamReference& ref, const BeamNodalValues& v,
 }
 
 /// Rate (1/s) and second rate (1/s^2) of a prescribed table at t by central differences over h.
+/// The torsional law of a crossing of two yarns of width w (m) under `friction`'s settings.
+contact::TorsionalFriction torsional_law(const FrictionParameters& friction, double w) {
+  return contact::torsional_law(friction.mu_static, friction.mu_kinetic,
+                                friction.tangential_penalty, friction.torsional_radius,
+                                friction.torsional_penalty, w, w);
+}
+
 double table_rate(const TimeTable& table, double t, double h) {
   return (table.at(t + h) - table.at(t - h)) / (2 * h);
 }
@@ -230,7 +237,7 @@ private:
   void check_energy(double energy, const char* what);
   /// Fails the run when the energy balance error exceeds kBalanceTolerance of the energy
   /// supplied (or dissipated, if more).
-  void check_balance() const;
+  void check_balance(const EnergyBalance& e) const;
   static constexpr double kBalanceTolerance = 0.05;
   /// Adds node_work_ to kick_work_ in node order.
   void collect_kick_work();
@@ -384,12 +391,8 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
               h = std::min(
                   h, (model.nodes[spline.nodes[k]] - model.nodes[spline.nodes[k - 1]]).norm());
           }
-        // The defaults of spline_contact_set.cpp: rho from the widest pair, k_r = eps_t rho^2.
-        const double rho = def.friction.torsional_radius > 0 ? def.friction.torsional_radius
-                                                             : contact::footprint_radius(w, w);
-        const double k_r = def.friction.torsional_penalty > 0
-                               ? def.friction.torsional_penalty
-                               : def.friction.tangential_penalty * rho * rho;
+        // The contact set's law for the widest pair (the largest rho and k_r).
+        const double k_r = torsional_law(def.friction, w).k_r();
         if (h > 0 && std::isfinite(h))
           torsion = k_r / (h * h);
       }
@@ -433,11 +436,7 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
                                model.nodes[model.elements[e].nodes[0]])
                                   .norm());
           }
-        const double rho = def.friction.torsional_radius > 0 ? def.friction.torsional_radius
-                                                             : contact::footprint_radius(w, w);
-        const double k_r = def.friction.torsional_penalty > 0
-                               ? def.friction.torsional_penalty
-                               : def.friction.tangential_penalty * rho * rho;
+        const double k_r = torsional_law(def.friction, w).k_r();
         const double lever = std::min(h, reach);
         if (lever > 0 && std::isfinite(lever))
           torsion = k_r / (lever * lever);
@@ -584,14 +583,13 @@ void CentralDifference::check_energy(double energy, const char* what) {
                      what, energy, supplied_max_));
 }
 
-void CentralDifference::check_balance() const {
+void CentralDifference::check_balance(const EnergyBalance& e) const {
   // The balance error (energy held and dissipated, less the work put in) of a stable run with
   // forces that are potential or dissipative is the integrator's, a small fraction of the work
   // (docs/verification.md). Forces that are neither can feed a mode: the penalty friction's point
   // forces on a fabric (docs/formulation.md, "Friction on the explicit path") rang in stick-slip
   // while their slips "dissipated" more than the loads supplied. Such a run is stopped, not
   // carried on with an energy it invented.
-  const EnergyBalance e = sim_.energy_balance();
   const double supplied = std::max(supplied_max_, e.friction + e.damping);
   if (std::abs(e.error) > kBalanceTolerance * supplied + energy_floor_)
     fail(fmt::format("the energy balance is off by {:.4g} J, {:.3g} % of the {:.4g} J supplied "
@@ -896,8 +894,10 @@ void CentralDifference::run(SimulationObserver* observer) {
         fail(fmt::format("the stable time step {:.4g} s fell below the minimum {:.4g} s",
                          status_.stable_dt, dt_min_));
       h_target_ = std::min(dt, status_.stable_dt);
-      check_energy(sim_.kinetic_energy() + sim_.strain_energy() + sim_.contact_energy(), "total");
-      check_balance();
+      // One evaluation of the energies (the strain energy is a pass over the elements) for both.
+      const EnergyBalance e = sim_.energy_balance();
+      check_energy(e.kinetic + e.internal + e.contact, "total");
+      check_balance(e);
     }
     // Land exactly on the end time; avoid a sliver of a last increment.
     double h = std::min(h_target_, step_.end_time - time_);
