@@ -108,18 +108,19 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   out.mu = mu;
   out.elastic_gap = g_t;
   out.slip_function = phi;
-  out.history.stuck = !(phi > 0.0);
+  const bool slip = slips(phi, mu * f_n, history.stuck);
+  out.history.stuck = !slip;
   Vector3d f_c = eps_t * g_t;
   Vector3d t = Vector3d::Zero();
-  if (phi > 0.0) {
-    // |g_t| > mu f_n / eps_t >= 0 here.
+  if (slip) {
+    // |g_t| > (1 - kOnCone) mu f_n / eps_t >= 0 here.
     out.slipping = true;
     t = g_t / gap_norm;
     f_c = (mu * f_n) * t;
-    const double scale = mu * f_n / (eps_t * gap_norm); // in [0, 1)
+    const double scale = mu * f_n / (eps_t * gap_norm); // in [0, 1 + kOnCone)
     out.history.xi_A = contact.xi_A - (contact.xi_A - history.xi_A) * scale;
     out.history.xi_B = contact.xi_B - (contact.xi_B - history.xi_B) * scale;
-    out.slip_increment = gap_norm - mu * f_n / eps_t;
+    out.slip_increment = std::max(gap_norm - mu * f_n / eps_t, 0.0);
     out.dissipation = mu * f_n * out.slip_increment;
   }
 

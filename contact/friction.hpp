@@ -89,6 +89,19 @@ private:
   double c_t_;
 };
 
+/// The stick/slip decision of a return mapping with trial slip function phi and cone radius
+/// `limit` (phi = |trial| - limit, in the units of the limit). A point that slipped in the
+/// committed state (`stuck` false) was returned onto the cone, so its first evaluation of the
+/// next increment at unmoved positions has phi at round-off (the projection's tolerance makes it
+/// 1e-9 relative) and the sign decides nothing: it keeps slipping until its trial falls inside
+/// the cone by kOnCone of the radius. The force is the same on both sides of the cone, so this
+/// moves no force; it gives the slip tangent to a point that goes on slipping (the first
+/// correction of an increment is solved with the converged state's tangent: simulation.cpp).
+inline constexpr double kOnCone = 1e-6;
+inline bool slips(double phi, double limit, bool stuck) {
+  return phi > (stuck ? 0.0 : -kOnCone * limit);
+}
+
 /// History of one contact point: the anchor and the stick flag of the last committed state.
 struct FrictionHistory {
   double xi_A = 0.0; ///< global parameter on curve A of the material point where it stuck

@@ -103,20 +103,21 @@ void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
   out.mu = mu;
   out.elastic_gap = g_t;
   out.slip_function = phi;
-  out.history.stuck = !(phi > 0.0);
+  const bool slip = slips(phi, mu * f_n, history.stuck);
+  out.history.stuck = !slip;
   Vector3d f = (w * eps_t) * g_t;
   Vector3d t = Vector3d::Zero();
-  if (phi > 0.0) {
-    // |g_t| > mu f_n / (w eps_t) >= 0 here.
+  if (slip) {
+    // |g_t| > (1 - kOnCone) mu f_n / (w eps_t) >= 0 here.
     out.slipping = true;
     t = g_t / gap_norm;
     f = (mu * f_n) * t;
-    const double scale = mu * f_n / (w * eps_t * gap_norm); // in [0, 1)
+    const double scale = mu * f_n / (w * eps_t * gap_norm); // in [0, 1 + kOnCone)
     out.history.zeta_A = contact.zeta_A - delta(0) * scale;
     out.history.theta_A = wrap_positive(contact.theta_A - delta(1) * scale);
     out.history.zeta_B = contact.zeta_B - delta(2) * scale;
     out.history.theta_B = wrap_positive(contact.theta_B - delta(3) * scale);
-    out.slip_increment = gap_norm - mu * f_n / (w * eps_t);
+    out.slip_increment = std::max(gap_norm - mu * f_n / (w * eps_t), 0.0);
     out.dissipation = mu * f_n * out.slip_increment;
   }
   // Tangential damping on the relative velocity of the contact points at fixed coordinates:

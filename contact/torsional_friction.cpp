@@ -44,13 +44,13 @@ TwistReturn twist_return(double theta, double anchor, bool stuck, double k, doub
   r.twist = std::remainder(theta - anchor, 2.0 * std::numbers::pi);
   r.limit = r.mu * f_n * law.rho(); // N m
   r.slip_function = k * std::abs(r.twist) - r.limit;
-  r.slipping = r.slip_function > 0.0;
+  r.slipping = slips(r.slip_function, r.limit, stuck);
   r.anchor = anchor;
   double m = k * r.twist;
   if (r.slipping) {
     m = std::copysign(r.limit, r.twist);
     r.anchor = std::remainder(theta - m / k, 2.0 * std::numbers::pi);
-    r.slip_increment = std::abs(r.twist) - r.limit / k;
+    r.slip_increment = std::max(std::abs(r.twist) - r.limit / k, 0.0);
     r.dissipation = r.limit * r.slip_increment;
   }
   r.torque = m;

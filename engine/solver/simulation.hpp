@@ -118,6 +118,10 @@ struct SimulationOptions {
   const std::atomic<bool>* stop_requested = nullptr;
   /// Line search on each Newton correction (Simulation::attempt).
   bool line_search = true;
+  /// Where an increment moves prescribed DOFs, its first Newton correction is solved with the
+  /// tangent of the converged state (Simulation::attempt); false: with the tangent at the
+  /// predictor, as without a line search.
+  bool first_correction_from_converged_state = true;
 };
 
 class Simulation {

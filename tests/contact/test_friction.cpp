@@ -493,6 +493,49 @@ TEST(SplineFriction, ReturnMappingPutsTheAnchorOnTheCone) {
   }
 }
 
+/// A point returned onto the cone in the committed state is evaluated next at positions that
+/// have not moved (the converged state's tangent, the first correction of an increment): its
+/// trial lies on the cone to the projection's round-off, and it keeps slipping, with the slip
+/// tangent, until its trial falls inside by kOnCone of the radius. A stuck point is not moved.
+TEST(SplineFriction, APointThatSlippedKeepsSlippingOnTheCone) {
+  const SplineCurve c3(3);
+  const LinearPenalty law(kEps);
+  const double delta = 2e-6;
+  const double f_n = kEps * delta;
+  const double eps_t = 1e5;
+  const double mu = 0.3;
+  const CoulombFriction friction(mu, mu, eps_t);
+  const Pair p0 = straight_crossing(c3, delta);
+  const double u_star = mu * f_n / eps_t;
+  const auto at = [&](double u, bool stuck) {
+    FrictionHistory history = first_touch(evaluate(p0, law, friction, {}).contact);
+    history.stuck = stuck;
+    Pair p = p0;
+    p.xa.row(0).array() += u;
+    return evaluate(p, law, friction, history).friction;
+  };
+  const SplineFrictionResult beyond = at((1 + 1e-4) * u_star, false); // slipping, the reference
+  const SplineFrictionResult inside = at((1 - 1e-3) * u_star, false); // stuck, the reference
+  ASSERT_TRUE(beyond.slipping);
+  ASSERT_FALSE(inside.slipping);
+  const double tangent_gap = (beyond.tangent - inside.tangent).norm();
+  ASSERT_GT(tangent_gap, 1e-2 * inside.tangent.norm()); // the two tangents differ
+  for (const double below : {1e-12, 1e-9, 1e-7}) {
+    const SplineFrictionResult on = at((1 - below) * u_star, false);
+    EXPECT_TRUE(on.slipping) << below;
+    EXPECT_FALSE(on.history.stuck) << below;
+    EXPECT_NEAR(on.force.norm(), mu * f_n, 1e-12 * mu * f_n) << below;
+    EXPECT_EQ(on.slip_increment, 0.0) << below;
+    EXPECT_EQ(on.dissipation, 0.0) << below;
+    EXPECT_LT((on.tangent - beyond.tangent).norm(), 1e-3 * tangent_gap) << below;
+    // The same point stuck in the committed state stays stuck: mu_s holds it.
+    const SplineFrictionResult held = at((1 - below) * u_star, true);
+    EXPECT_FALSE(held.slipping) << below;
+    EXPECT_LT((held.tangent - inside.tangent).norm(), 1e-3 * tangent_gap) << below;
+  }
+  EXPECT_FALSE(at((1 - 10 * kOnCone) * u_star, false).slipping);
+}
+
 TEST(SplineFriction, NoFrictionWithoutARegularActiveContact) {
   const SplineCurve c3(3);
   const LinearPenalty law(kEps);

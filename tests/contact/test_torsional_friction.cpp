@@ -332,6 +332,33 @@ TEST(TorsionalFriction, StaticThenKineticCoefficientAndTheReturnMapping) {
 /// A in the contact plane (the tangent turns about n as the point slides), which jumps at a knot
 /// of a quadratic spline: on a yarn crimped out of the plane (curvature along n, as in a fabric)
 /// the residual is continuous; curved in the plane it jumps (reported).
+/// The twist's return mapping keeps a crossing that slipped in the committed state slipping
+/// while its trial lies on the cone to within kOnCone of the limit (friction.hpp, slips()).
+TEST(TorsionalFriction, ACrossingThatSlippedKeepsSlippingOnTheCone) {
+  const TorsionalFriction law(0.3, 0.3, kKr, kRho);
+  const double f_n = 2.0;
+  const double limit = 0.3 * f_n * kRho;
+  const double anchor = 0.25;
+  for (const double below : {1e-12, 1e-9, 1e-7}) {
+    for (const double sign : {1.0, -1.0}) {
+      const double theta = anchor + sign * (1 - below) * limit / kKr;
+      const TwistReturn slipped = twist_return(theta, anchor, false, kKr, f_n, law);
+      EXPECT_TRUE(slipped.slipping) << below;
+      EXPECT_NEAR(slipped.torque, sign * limit, 1e-12 * limit);
+      EXPECT_EQ(slipped.slip_increment, 0.0);
+      EXPECT_EQ(slipped.dissipation, 0.0);
+      // The anchor returned onto the cone (a shift of `below` of the cone's radius).
+      EXPECT_NEAR(kKr * std::remainder(theta - slipped.anchor, 2 * std::numbers::pi), sign * limit,
+                  1e-12 * limit);
+      EXPECT_FALSE(twist_return(theta, anchor, true, kKr, f_n, law).slipping) << below;
+    }
+  }
+  EXPECT_FALSE(twist_return(anchor + (1 - 10 * kOnCone) * limit / kKr, anchor, false, kKr, f_n, law)
+                   .slipping);
+  EXPECT_TRUE(
+      twist_return(anchor + (1 + 1e-12) * limit / kKr, anchor, true, kKr, f_n, law).slipping);
+}
+
 TEST(TorsionalFriction, TorqueIsContinuousAsTheContactPassesAKnot) {
   const SplineCurve& c5 = curve5();
   const SplineCurve c3(3);
