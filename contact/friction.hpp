@@ -34,7 +34,8 @@
 // Law (Simo & Laursen 1992, penalty form): f_tr = eps_t g_t, phi = |f_tr| - mu f_n, with
 // mu = mu_s if the point stuck in the last committed state, else mu_k.
 //   stick (phi <= 0): f_c = f_tr, the anchor is kept;
-//   slip  (phi > 0):  f_c = mu f_n g_t / |g_t|, the anchor is pulled onto the cone,
+//   slip  (phi > 0, or phi > -kOnCone mu f_n for a point that slipped in the committed state:
+//         slips() below): f_c = mu f_n g_t / |g_t|, the anchor is pulled onto the cone,
 //                     xi^s <- xi - (xi - xi^s) mu f_n / (eps_t |g_t|) on both curves, and the
 //                     slip increment is |g_t| - mu f_n / eps_t.
 // The coefficient is chosen from the committed state, not switched within a step, so the force
@@ -130,7 +131,7 @@ struct SplineFrictionResult {
   /// Evaluated: the normal contact is active on a regular point projection. Otherwise every
   /// field below is zero, and `history` is the input's.
   bool active = false;
-  bool slipping = false; ///< the trial force left the cone (phi > 0)
+  bool slipping = false; ///< the trial force left the cone (slips(): phi > 0, or on it after slip)
   double mu = 0.0;       ///< the coefficient used, mu_s or mu_k
   Eigen::Vector3d elastic_gap = Eigen::Vector3d::Zero(); ///< trial g_t, metres
   /// v_t, m/s; zero without PairRates or damping.

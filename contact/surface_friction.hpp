@@ -47,7 +47,8 @@
 // Law (Simo & Laursen 1992, penalty form): f_tr = w eps_t g_t, phi = |f_tr| - mu f_n, with
 // mu = mu_s if the point stuck in the last committed state, else mu_k.
 //   stick (phi <= 0): f = f_tr, the anchor is kept;
-//   slip  (phi > 0):  f = mu f_n g_t / |g_t|, the anchor is pulled onto the cone,
+//   slip  (phi > 0, or on the cone to kOnCone after a slip: slips() in friction.hpp):
+//                     f = mu f_n g_t / |g_t|, the anchor is pulled onto the cone,
 //                     c^s <- c - (c - c^s) mu f_n / (w eps_t |g_t|) (all four coordinates, theta
 //                     differences wrapped), and the slip increment is |g_t| - mu f_n / (w eps_t).
 // The coefficient is chosen from the committed state, not switched within a step, as in the
@@ -119,7 +120,7 @@ struct SurfaceFrictionResult {
   /// Evaluated: the normal contact is active on a regular projection. Otherwise every field
   /// below is zero, and `history` is the input's.
   bool active = false;
-  bool slipping = false; ///< the trial force left the cone (phi > 0)
+  bool slipping = false; ///< the trial force left the cone (slips(): phi > 0, or on it after slip)
   double mu = 0.0;       ///< the coefficient used, mu_s or mu_k
   Eigen::Vector3d elastic_gap = Eigen::Vector3d::Zero(); ///< trial g_t, metres
   /// v_t, m/s; zero without SurfacePairRates or damping (see the file's comment).

@@ -34,7 +34,8 @@
 //   trial m = w k_r dtheta, phi = |m| - mu f_n rho, mu = mu_s if the twist stuck in the last
 //   committed state, else mu_k;
 //   stick (phi <= 0): m = w k_r dtheta, the anchor kept;
-//   slip  (phi > 0):  m = mu f_n rho sign(dtheta), theta^s <- theta - m / (w k_r), slip
+//   slip  (phi > 0, or on the cone after a slip: slips() in friction.hpp):
+//                     m = mu f_n rho sign(dtheta), theta^s <- theta - m / (w k_r), slip
 //                     increment |dtheta| - mu f_n rho / (w k_r) (rad), dissipation |m| times it.
 // The cone test k_r |dtheta| <= mu f rho does not depend on w, and two pairs sharing a contact
 // carry k_r dtheta together; at w = 1 this is the spline kernel's law. Residual: m dtheta/dd
@@ -90,7 +91,7 @@ struct SurfaceTorsionalFrictionResult {
   /// Evaluated: the normal contact is active on a regular projection. Otherwise every field
   /// below is zero and the history fields are the input's.
   bool active = false;
-  bool slipping = false;      ///< the trial torque left the cone (phi > 0)
+  bool slipping = false;      ///< the trial torque left the cone (slips())
   double mu = 0.0;            ///< the coefficient used, mu_s or mu_k
   double angle = 0.0;         ///< theta, rad
   double elastic_twist = 0.0; ///< trial dtheta = theta - theta^s, rad

@@ -19,7 +19,8 @@
 // phi = |m| - mu f_n rho (rho the effective contact radius, m), mu = mu_s if the crossing stuck
 // in the last committed state, else mu_k.
 //   stick (phi <= 0): m = k_r dtheta, the anchor kept;
-//   slip  (phi > 0):  m = mu f_n rho sign(dtheta), theta^s <- theta - m / k_r,
+//   slip  (phi > 0, or on the cone after a slip: slips() in friction.hpp):
+//                     m = mu f_n rho sign(dtheta), theta^s <- theta - m / k_r,
 //                     slip increment |dtheta| - mu f_n rho / k_r (rad), dissipation m times it.
 // Unlike the pointwise force, the torque enters as the variation of the angle: the residual is
 // m dtheta/dx, the gradient of the stored energy m^2 / (2 k_r) in stick (exactly conservative),
@@ -93,7 +94,7 @@ struct TwistReturn {
   double twist = 0.0;          ///< trial dtheta = theta - theta^s, wrapped to (-pi, pi], rad
   double limit = 0.0;          ///< mu f_n rho, N m
   double slip_function = 0.0;  ///< k |dtheta| - mu f_n rho, N m
-  bool slipping = false;       ///< slip_function > 0
+  bool slipping = false;       ///< slips(slip_function, limit, stuck)
   double torque = 0.0;         ///< m, N m
   double anchor = 0.0;         ///< theta^s to commit (returned onto the cone in slip), rad
   double slip_increment = 0.0; ///< |dtheta| - limit / k in slip, rad
@@ -132,7 +133,7 @@ struct TorsionalFrictionResult {
   /// Evaluated: the normal contact is active on a regular point projection. Otherwise every
   /// field below is zero and the history fields are the input's.
   bool active = false;
-  bool slipping = false;      ///< the trial torque left the cone (phi > 0)
+  bool slipping = false;      ///< the trial torque left the cone (slips())
   double mu = 0.0;            ///< the coefficient used, mu_s or mu_k
   double angle = 0.0;         ///< theta, rad
   double elastic_twist = 0.0; ///< trial dtheta = theta - theta^s, rad
