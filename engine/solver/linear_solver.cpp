@@ -459,11 +459,32 @@ private:
   bool lu_for_attempt_ = false; ///< GMRES failed in this attempt: LU until the next one
 };
 
-} // namespace
+/// A system without equations (every DOF of the model prescribed) is solved here: METIS divides
+/// by zero on an empty graph (SIGFPE) and UMFPACK reports an empty matrix as singular.
+class EmptySystemGuard final : public LinearSolver {
+public:
+  explicit EmptySystemGuard(std::unique_ptr<LinearSolver> solver) : solver_(std::move(solver)) {}
+  void analyze(const SparseMatrix& A) override {
+    if (A.rows() > 0)
+      solver_->analyze(A);
+  }
+  void factorize(const SparseMatrix& A) override {
+    empty_ = A.rows() == 0;
+    if (!empty_)
+      solver_->factorize(A);
+  }
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
+    return empty_ ? Eigen::VectorXd(0) : solver_->solve(b);
+  }
+  void start_attempt() override { solver_->start_attempt(); }
+  std::string name() const override { return solver_->name(); }
 
-std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind) {
-  if (kind == LinearSolverKind::Auto)
-    throw std::invalid_argument("make_linear_solver: resolve 'auto' against the model first");
+private:
+  std::unique_ptr<LinearSolver> solver_;
+  bool empty_ = false;
+};
+
+std::unique_ptr<LinearSolver> make_solver(LinearSolverKind kind) {
   if (kind == LinearSolverKind::LU)
     return std::make_unique<UmfpackSolver>();
   if (kind == LinearSolverKind::Cholmod)
@@ -479,6 +500,14 @@ std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind) {
 #endif
   }
   return std::make_unique<SymmetricLDLTSolver>();
+}
+
+} // namespace
+
+std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind) {
+  if (kind == LinearSolverKind::Auto)
+    throw std::invalid_argument("make_linear_solver: resolve 'auto' against the model first");
+  return std::make_unique<EmptySystemGuard>(make_solver(kind));
 }
 
 bool mumps_available() {
