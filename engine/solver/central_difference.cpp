@@ -165,7 +165,6 @@ void committed_history(const BeamReference& ref, const BeamNodalValues& v,
   }
 }
 
-/// Rate (1/s) and second rate (1/s^2) of a prescribed table at t by central differences over h.
 /// The torsional law of a crossing of two yarns of width w (m) under `friction`'s settings.
 contact::TorsionalFriction torsional_law(const FrictionParameters& friction, double w) {
   return contact::torsional_law(friction.mu_static, friction.mu_kinetic,
@@ -173,6 +172,7 @@ contact::TorsionalFriction torsional_law(const FrictionParameters& friction, dou
                                 friction.torsional_penalty, w, w);
 }
 
+/// Rate (1/s) and second rate (1/s^2) of a prescribed table at t by central differences over h.
 double table_rate(const TimeTable& table, double t, double h) {
   return (table.at(t + h) - table.at(t - h)) / (2 * h);
 }

