@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <iterator>
 #include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -74,8 +75,11 @@ Assembler::Assembler(const Model& model, const std::vector<char>& constrained)
   build_pattern();
 }
 
-void Assembler::build_pattern() {
+void Assembler::build_pattern(bool keep_values) {
   ++pattern_version_;
+  SparseMatrix old;
+  if (keep_values)
+    old = std::move(matrix_);
   // Pattern: every element's 18 x 18 block, every node's 6 x 6 block and every contact
   // coupling's 6 nodes (translations, or all six DOFs), free equations only. Bucketed by column
   // (a counting pass, then a filling pass) and sorted and deduplicated column by column: a global
@@ -127,6 +131,21 @@ void Assembler::build_pattern() {
   std::copy(rows.begin(), rows.begin() + static_cast<std::ptrdiff_t>(kept),
             matrix_.innerIndexPtr());
   std::fill(matrix_.valuePtr(), matrix_.valuePtr() + kept, 0.0);
+  if (keep_values) {
+    // Column by column, the old rows are a subset of the new ones, both sorted: one merge.
+    for (int c = 0; c < n_equations_; ++c) {
+      Eigen::Index s = matrix_.outerIndexPtr()[c];
+      for (Eigen::Index k = old.outerIndexPtr()[c]; k < old.outerIndexPtr()[c + 1]; ++k) {
+        while (s < matrix_.outerIndexPtr()[c + 1] &&
+               matrix_.innerIndexPtr()[s] < old.innerIndexPtr()[k])
+          ++s;
+        if (s == matrix_.outerIndexPtr()[c + 1] ||
+            matrix_.innerIndexPtr()[s] != old.innerIndexPtr()[k])
+          throw std::logic_error("Assembler::build_pattern: the new pattern lacks an old entry");
+        matrix_.valuePtr()[s] = old.valuePtr()[k];
+      }
+    }
+  }
 
   // Column-major like ElementMatrix, so the scatter reads both in memory order.
   element_slots_.resize(connectivity_.size());
@@ -212,6 +231,14 @@ void Assembler::add_node_block(int node, int row_offset, int col_offset,
 }
 
 bool Assembler::ensure_couplings(const std::vector<ContactCoupling>& groups) {
+  std::vector<ContactCoupling> asked(groups);
+  std::sort(asked.begin(), asked.end());
+  asked.erase(std::unique(asked.begin(), asked.end()), asked.end());
+  std::vector<ContactCoupling> unlisted;
+  std::set_difference(asked.begin(), asked.end(), couplings_.begin(), couplings_.end(),
+                      std::back_inserter(unlisted));
+  if (unlisted.empty())
+    return false;
   auto present = [&](const ContactCoupling& g) {
     const int dofs = g.rotations ? 6 : 3;
     for (int a = 0; a < 6; ++a)
@@ -224,17 +251,17 @@ bool Assembler::ensure_couplings(const std::vector<ContactCoupling>& groups) {
           }
     return true;
   };
-  std::vector<ContactCoupling> missing;
-  for (const auto& g : groups)
-    if (!present(g))
-      missing.push_back(g);
-  if (missing.empty())
-    return false;
-  couplings_.insert(couplings_.end(), missing.begin(), missing.end());
-  std::sort(couplings_.begin(), couplings_.end());
-  couplings_.erase(std::unique(couplings_.begin(), couplings_.end()), couplings_.end());
-  build_pattern();
-  return true;
+  // Groups the pattern holds already (through the beams or other couplings) are listed too, so
+  // that they are not looked up again; the pattern is the same with or without them.
+  const bool grow = !std::all_of(unlisted.begin(), unlisted.end(), present);
+  std::vector<ContactCoupling> merged;
+  merged.reserve(couplings_.size() + unlisted.size());
+  std::merge(couplings_.begin(), couplings_.end(), unlisted.begin(), unlisted.end(),
+             std::back_inserter(merged));
+  couplings_ = std::move(merged);
+  if (grow)
+    build_pattern(true);
+  return grow;
 }
 
 bool Assembler::set_couplings(std::vector<ContactCoupling> groups) {

@@ -64,14 +64,21 @@ public:
   BeamNodalValues nodal_values(const State& state, int e) const;
 
   /// Makes sure the pattern holds the blocks coupling the nodes of each group (translations, and
-  /// rotations where the group asks for them). The pattern only grows, so it settles after the
-  /// first contacts; returns true when it changed (the solver must analyse it again).
+  /// rotations where the group asks for them); returns true when the pattern grew (the solver
+  /// must analyse it again). The matrix keeps its values: a grown pattern holds the old entries
+  /// where they were and zeros in the new ones, so a tangent half assembled (the beams') when a
+  /// contact pair comes within reach is completed, not started again, and every entry is the
+  /// same sum as if the pattern had held the coupling from the start. Cost: a merge of the sorted
+  /// groups with couplings() and, for the groups not in it, a look-up of their entries.
   bool ensure_couplings(const std::vector<ContactCoupling>& groups);
   /// Makes the pattern hold exactly these contact couplings besides the beams': couplings no
-  /// candidate needs any more are dropped, so that the pattern (and the factorisation's fill)
-  /// follows the contact candidates down as well as up. Returns true when it changed.
+  /// pair needs any more are dropped, so that the pattern (and the factorisation's fill) follows
+  /// the contacts down as well as up. Zeroes the matrix when the pattern changes. Returns true
+  /// when it changed.
   bool set_couplings(std::vector<ContactCoupling> groups);
-  /// The contact couplings the pattern holds, sorted, without repeats.
+  /// The contact couplings the pattern was asked to hold (ensure_couplings, set_couplings),
+  /// sorted, without repeats; the pattern is a function of this list (a checkpoint restores it
+  /// with set_couplings).
   const std::vector<ContactCoupling>& couplings() const { return couplings_; }
   /// Counts pattern rebuilds; a solver analyses again when it changes.
   int pattern_version() const { return pattern_version_; }
@@ -91,11 +98,13 @@ public:
                               const Eigen::Matrix<double, 24, 24>& block, double scale = 1.0);
 
 private:
-  void build_pattern();
+  /// The pattern of the beams and couplings_, matrix() zero; with keep_values the entries of
+  /// the old pattern (which the new one must hold) keep their values.
+  void build_pattern(bool keep_values = false);
 
   int n_nodes_ = 0;
   int pattern_version_ = 0;
-  std::vector<ContactCoupling> couplings_; ///< contact couplings in the pattern, sorted
+  std::vector<ContactCoupling> couplings_; ///< see couplings()
   int n_equations_ = 0;
   std::vector<int> equation_;
   std::vector<std::array<int, 3>> connectivity_;

@@ -138,8 +138,12 @@ public:
   virtual void set_time(double /*time*/) {}
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
-  /// Node groups of all current candidate pairs, for the sparsity pattern (unused slots repeat a
-  /// node; translations only, or all six DOFs, as the set's pair tangents need).
+  /// Node groups of the pairs of the last projection that are active or within reach (a
+  /// converged projection with a gap below the definition's broad-phase margin), for the
+  /// tangent's pattern (unused slots repeat a node; translations only, or all six DOFs, as the
+  /// set's pair tangents need). Candidates farther apart are left out: between neighbouring
+  /// parallel yarns of a sheared fabric they are thousands, each coupling two yarns along their
+  /// length in the factor long before they touch (docs/performance.md).
   virtual std::vector<ContactCoupling> couplings() const = 0;
   /// Adds the active pairs' residuals and, if want_tangent, tangents, in sorted pair order.
   virtual void assemble(Eigen::VectorXd& residual, Assembler& assembler,

@@ -35,6 +35,9 @@ struct SplineContactSet::Definition {
   double torsional_radius = 0;  ///< rho, m; 0: from the pair's widths
   double torsional_penalty = 0; ///< k_r, N m/rad; 0: eps_t rho^2
   TimeTable compaction = TimeTable::constant(0.0); ///< c(t), m: added to r_A + r_B
+  /// m: a pair whose gap is below it is coupled in the tangent's pattern (couplings()): the
+  /// broad-phase margin, the distance the search already looks beyond contact.
+  double reach = 0;
 
   /// The torsional law of a pair of splines of widths wa, wb (m): FrictionParameters' defaults.
   contact::TorsionalFriction torsion(double wa, double wb) const {
@@ -73,6 +76,7 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
           if (def.margin <= 0)
             margin = std::max(margin, radius);
         }
+    d->reach = margin;
     std::vector<std::pair<int, int>> groups{{0, 1}};
     if (def.self_contact)
       groups.insert(groups.end(), {{0, 0}, {1, 1}});
@@ -325,9 +329,13 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
 
 std::vector<ContactCoupling> SplineContactSet::couplings() const {
   std::vector<ContactCoupling> out;
-  out.reserve(work_.size());
-  for (const Work& item : work_)
-    out.push_back({nodes_of(*definitions_[item.definition], item.pair), false});
+  for (const Work& item : work_) {
+    const Definition& d = *definitions_[item.definition];
+    const bool near =
+        item.result.status == contact::ProjectionStatus::Converged && item.result.gap < d.reach;
+    if (item.result.active || near)
+      out.push_back({nodes_of(d, item.pair), false});
+  }
   return out;
 }
 

@@ -31,6 +31,9 @@ struct SurfaceContactSet::Definition {
   bool torsional = false;       ///< torsional friction at the crossings (with `friction`)
   double torsional_radius = 0;  ///< rho, m; 0: from the pair's widths
   double torsional_penalty = 0; ///< k_r, N m/rad; 0: eps_t rho^2
+  /// m: a pair whose gap is below it is coupled in the tangent's pattern (couplings()): the
+  /// broad-phase margin, as SplineContactSet's.
+  double reach = 0;
   /// The torsional law of a pair of surfaces of widths wa, wb (m, twice the semi-axis a):
   /// FrictionParameters' defaults, as SplineContactSet's.
   contact::TorsionalFriction torsion(double wa, double wb) const {
@@ -69,6 +72,7 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
             margin = std::max(margin, std::min(surface.a, surface.b));
         }
       }
+    d->reach = margin;
     broadphase::CandidateSearchOptions options;
     options.margin = margin;
     options.same_curve_skip = 1;
@@ -442,9 +446,13 @@ void SurfaceContactSet::share_split_contacts() {
 
 std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
   std::vector<ContactCoupling> out;
-  out.reserve(work_.size());
   for (const Work& item : work_) {
-    const std::array<int, 4> n = nodes_of(*definitions_[item.definition], item.pair);
+    const Definition& d = *definitions_[item.definition];
+    const bool near =
+        item.result.status == contact::ProjectionStatus::Converged && item.result.gap < d.reach;
+    if (!item.result.active && !near)
+      continue;
+    const std::array<int, 4> n = nodes_of(d, item.pair);
     out.push_back({{n[0], n[1], n[2], n[3], n[3], n[3]}, true});
   }
   return out;

@@ -492,7 +492,6 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
     h5::write_double_attribute(root, "damping_work", c.damping_work);
     h5::write_double_attribute(root, "energy_reference", c.energy_reference);
     h5::write_int_attribute(root, "total_iterations", c.total_iterations);
-    h5::write_int_attribute(root, "coupled_candidates", c.coupled_candidates);
     write_status(root, "explicit_", c.explicit_status);
 
     h5::Handle out = h5::create_group(root, "outputs");
@@ -532,8 +531,6 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
       groups.push_back(group.rotations ? 1 : 0);
     }
     write_table(pattern.id(), "groups", groups, 7);
-    h5::write_dataset(pattern.id(), "calls", std::span<const int>(c.pattern_calls),
-                      std::array<hsize_t, 1>{c.pattern_calls.size()});
     pattern.close();
 
     if (c.contact)
@@ -588,7 +585,6 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
   c.damping_work = h5::read_double_attribute(root, "damping_work");
   c.energy_reference = h5::read_double_attribute(root, "energy_reference");
   c.total_iterations = h5::read_int_attribute(root, "total_iterations");
-  c.coupled_candidates = h5::read_int_attribute(root, "coupled_candidates");
   c.explicit_status = read_status(root, "explicit_");
 
   h5::Handle state = h5::open_group(root, "state");
@@ -627,7 +623,6 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
     c.pattern_groups.push_back(
         {{groups[i], groups[i + 1], groups[i + 2], groups[i + 3], groups[i + 4], groups[i + 5]},
          groups[i + 6] != 0});
-  c.pattern_calls = h5::read_ints(pattern.id(), "calls");
 
   if (h5::exists(root, "contact"))
     c.contact = read_contact(root);

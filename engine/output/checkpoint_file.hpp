@@ -6,13 +6,14 @@
 // Layout (arrays node-major, shape (rows, columns), float64 unless noted):
 //   /            attributes format ("yarnsim checkpoint 1"), version, deck_hash, increment, time
 //                (s), step, next_dt (s), results_steps (int32: steps of results.h5 written with
-//                it), the work sums (J), total_iterations, coupled_candidates, explicit_*
+//                it), the work sums (J), total_iterations, explicit_*
 //                (ExplicitStatus)
 //   /outputs     one int32 attribute per CSV file of the run: its rows written with it
 //   /state       x_n, v_n, a_n, W_n, A_n, rotation_n (n_nodes, 3); Q_n (n_nodes, 9), each triad
 //                column-major; gauss_Q (2 n_elements, 9), gauss_kappa (2 n_elements, 3);
 //                reactions, load_n (n_nodes, 6)
-//   /pattern     groups (n, 6) int32, calls (n_calls) int32 (SimulationCheckpoint)
+//   /pattern     groups (n, 7) int32: a coupling's 6 nodes, then 1 with rotations, else 0
+//                (SimulationCheckpoint::pattern_groups)
 //   /contact     with spline contact: attributes candidates_version, definitions;
 //                boxes_<k> (n_segments, 6): min then max corner of definition k's last search;
 //                committed_keys (n, 3) int32, committed (n, 3): xi_A, xi_B, active; pair_keys

@@ -42,8 +42,6 @@ SimulationCheckpoint Simulation::checkpoint() const {
   if (contact_ && contact_->surface())
     c.surface_contact = contact_->surface()->snapshot();
   c.pattern_groups = assembler_->couplings();
-  c.pattern_calls = {static_cast<int>(c.pattern_groups.size())};
-  c.coupled_candidates = coupled_candidates_;
   return c;
 }
 
@@ -82,10 +80,6 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
         "checkpoint: explicit integrator state for step {}, but step {} is in progress and is "
         "not that explicit step",
         from.explicit_progress->step + 1, from.step + 1));
-  if (from.pattern_calls.empty()
-          ? !from.pattern_groups.empty()
-          : from.pattern_calls.back() != static_cast<int>(from.pattern_groups.size()))
-    throw std::invalid_argument("checkpoint: pattern growth calls do not cover their groups");
 
   step_ = from.step;
   next_dt_ = from.next_dt;
@@ -109,22 +103,12 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   if (surface)
     contact_->surface()->restore(*from.surface_contact);
 
-  // The pattern grows as it did, call by call, from the beams' pattern.
-  int begin = 0;
-  for (int end : from.pattern_calls) {
-    if (end < begin)
-      throw std::invalid_argument("checkpoint: pattern growth calls are not in order");
-    const std::vector<ContactCoupling> groups(from.pattern_groups.begin() + begin,
-                                              from.pattern_groups.begin() + end);
-    for (const auto& g : groups)
-      for (int node : g.nodes)
-        if (node < 0 || node >= n)
-          throw std::invalid_argument(
-              fmt::format("checkpoint: a contact coupling names node index {} of {}", node, n));
-    assembler_->ensure_couplings(groups);
-    begin = end;
-  }
-  coupled_candidates_ = from.coupled_candidates;
+  for (const auto& g : from.pattern_groups)
+    for (int node : g.nodes)
+      if (node < 0 || node >= n)
+        throw std::invalid_argument(
+            fmt::format("checkpoint: a contact coupling names node index {} of {}", node, n));
+  assembler_->set_couplings(from.pattern_groups);
 }
 
 } // namespace yarnsim

@@ -52,13 +52,10 @@ struct SimulationCheckpoint {
   std::optional<SplineContactSet::Snapshot> contact; ///< when the model has spline contact
   /// When the model has surface contact.
   std::optional<SurfaceContactSet::Snapshot> surface_contact;
-  /// The contact couplings the tangent's pattern holds (Assembler::couplings), as calls of
-  /// Assembler::ensure_couplings on the beams' pattern (pattern_calls[k] is the end of call k;
-  /// Simulation::checkpoint writes one): they rebuild the same pattern, hence the same ordering
-  /// and factorisation.
+  /// The contact couplings of the tangent's pattern (Assembler::couplings): restored with
+  /// Assembler::set_couplings they rebuild the same pattern, hence the same ordering and
+  /// factorisation.
   std::vector<ContactCoupling> pattern_groups;
-  std::vector<int> pattern_calls;
-  int coupled_candidates = -1; ///< contact candidate version the pattern holds
 };
 
 } // namespace yarnsim

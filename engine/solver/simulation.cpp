@@ -247,16 +247,10 @@ struct Simulation::IterationGraph {
       : broad(graph,
               [&s](const tbb::flow::continue_msg&) {
                 const auto t0 = std::chrono::steady_clock::now();
-                // New candidate pairs may grow the pattern: before anything is assembled.
                 if (s.contact_)
                   s.contact_->update_candidates(s.state_);
                 const auto t1 = std::chrono::steady_clock::now();
                 s.stage_times_.broad_phase += std::chrono::duration<double>(t1 - t0).count();
-                if (s.contact_ && s.coupled_candidates_ != s.contact_->candidates_version()) {
-                  const std::vector<ContactCoupling> groups = s.contact_->couplings();
-                  s.assembler_->ensure_couplings(groups);
-                  s.coupled_candidates_ = s.contact_->candidates_version();
-                }
                 s.iteration_.residual->setZero();
                 if (s.iteration_.want_tangent)
                   s.assembler_->zero_matrix();
@@ -288,8 +282,13 @@ struct Simulation::IterationGraph {
               }),
         contact_assembly(graph, [&s](const tbb::flow::continue_msg&) {
           const auto t0 = std::chrono::steady_clock::now();
-          if (s.contact_ && s.iteration_.veto.empty())
+          if (s.contact_ && s.iteration_.veto.empty()) {
+            // The pairs the narrow phase found active or within reach must be in the pattern;
+            // a pattern that grows here keeps the beams' entries already assembled.
+            if (s.iteration_.want_tangent)
+              s.assembler_->ensure_couplings(s.contact_->couplings());
             s.contact_->assemble(*s.iteration_.residual, *s.assembler_, s.iteration_.want_tangent);
+          }
           s.stage_times_.other_assembly += seconds_since(t0);
         }) {
     tbb::flow::make_edge(broad, narrow);
@@ -480,10 +479,8 @@ void Simulation::move_along(const Eigen::VectorXd& delta, double s) {
 
 void Simulation::prune_couplings() {
   const std::vector<ContactCoupling> needed = contact_->couplings();
-  if (4 * assembler_->couplings().size() > 5 * needed.size() + 64) {
+  if (4 * assembler_->couplings().size() > 5 * needed.size() + 64)
     assembler_->set_couplings(needed);
-    coupled_candidates_ = contact_->candidates_version();
-  }
 }
 
 double Simulation::scaled_norm(const Eigen::VectorXd& v) const {
@@ -821,8 +818,8 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
   }
   if (contact_) {
     contact_->commit();
-    // The pattern grows with every candidate an iteration meets, and an attempt that wandered
-    // (or failed) leaves couplings no candidate of the converged state needs: with touching
+    // The pattern grows with every pair within reach an iteration meets, and attempts that
+    // wandered (or failed) leave couplings the converged state does not need: with touching
     // yarns they grew the factor tenfold and each factorisation forty times slower
     // (docs/performance.md). Drop them when they are more than a quarter of what is needed.
     prune_couplings();
@@ -868,10 +865,10 @@ void Simulation::run(SimulationObserver* observer) {
         // Restore the converged state and halve; the candidates the failed attempt met go with it.
         state_.x = state_.x_n;
         state_.alpha.setZero();
-        if (contact_) {
+        // The pattern keeps what the attempt coupled: the converged state's pairs are not
+        // projected again here, and the next commit prunes it.
+        if (contact_)
           contact_->update_candidates(state_);
-          prune_couplings();
-        }
         if (observer)
           observer->on_attempt_failed(*this, t + h, h, why);
         ++failed;

@@ -213,8 +213,8 @@ private:
   /// Norm of a vector over the free equations, translations over the shortest element (m / m)
   /// and rotations (rad): the damped Newton's measure of corrections.
   double scaled_norm(const Eigen::VectorXd& v) const;
-  /// Drops the pattern's contact couplings that the current candidates do not need when they
-  /// are more than a quarter of those needed.
+  /// Drops the pattern's contact couplings that the last evaluation's pairs do not need
+  /// (ContactSet::couplings) when they are more than a quarter of those needed.
   void prune_couplings();
   bool stop_requested() const;
   [[noreturn]] void throw_interrupted() const;
@@ -280,7 +280,6 @@ private:
   IterationData iteration_;
   std::unique_ptr<IterationGraph> graph_; ///< last: built on the members above
   int analysed_pattern_ = -1;             ///< pattern version the solver analysed
-  int coupled_candidates_ = -1;           ///< contact candidate version the pattern holds
 
   // Where run() starts or goes on, and what a checkpoint needs besides (checkpoint.cpp).
   int step_ = 0;       ///< solution step in progress

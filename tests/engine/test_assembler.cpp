@@ -3,6 +3,7 @@
 // assembled without its coupling is refused instead of writing outside the matrix.
 #include "beam_models.hpp"
 #include "engine/assembly/assembler.hpp"
+#include "engine/state/state.hpp"
 
 #include <gtest/gtest.h>
 
@@ -71,6 +72,69 @@ TEST(Assembler, SplineCouplingsHoldTranslationsOnlyAndSurfaceCouplingsRotationsT
   } catch (const std::logic_error& e) {
     EXPECT_NE(std::string(e.what()).find("4, 5, 6, 11, 12, 13"), std::string::npos) << e.what();
   }
+}
+
+TEST(Assembler, AGrownPatternKeepsTheEntriesAssembledBeforeIt) {
+  // The beams are assembled before the narrow phase says which contact pairs need coupling; a
+  // pattern grown then must keep them: the same values as an assembly into the grown pattern.
+  const Model m = two_beams();
+  const std::vector<char> free(6 * m.nodes.size(), 0);
+  const int n = static_cast<int>(m.nodes.size());
+  State state;
+  state.x.resize(3, n);
+  state.alpha.resize(3, n);
+  state.Q_n.assign(n, Eigen::Matrix3d::Identity());
+  for (int i = 0; i < n; ++i) { // a bent, twisted configuration: full beam blocks
+    state.x.col(i) = m.nodes[i] + Eigen::Vector3d(0, 0, 0.01 * i * i);
+    state.alpha.col(i) = Eigen::Vector3d(0.1 * i, -0.05 * i, 0.02 * i * i);
+  }
+  {
+    const Assembler a(m, free);
+    for (const BeamReference& ref : a.references())
+      state.gauss.push_back({GaussState{ref.Q0[0], Eigen::Vector3d::Zero()},
+                             GaussState{ref.Q0[1], Eigen::Vector3d::Zero()}});
+  }
+  const ContactCoupling pair{{1, 2, 3, 8, 9, 10}, false};
+  Eigen::VectorXd r(6 * state.n_nodes());
+
+  Assembler grown(m, free);
+  r.setZero();
+  grown.zero_matrix();
+  grown.add_beams(state, r, true, {});
+  const Eigen::Index before = grown.matrix().nonZeros();
+  EXPECT_TRUE(grown.ensure_couplings({pair}));
+  EXPECT_GT(grown.matrix().nonZeros(), before);
+
+  Assembler from_start(m, free);
+  from_start.ensure_couplings({pair});
+  r.setZero();
+  from_start.zero_matrix();
+  from_start.add_beams(state, r, true, {});
+
+  ASSERT_EQ(grown.matrix().nonZeros(), from_start.matrix().nonZeros());
+  for (Eigen::Index k = 0; k < grown.matrix().nonZeros(); ++k) {
+    ASSERT_EQ(grown.matrix().innerIndexPtr()[k], from_start.matrix().innerIndexPtr()[k]);
+    ASSERT_EQ(grown.matrix().valuePtr()[k], from_start.matrix().valuePtr()[k]) << "entry " << k;
+  }
+  EXPECT_GT(grown.matrix().cwiseAbs().sum(), 0.0);
+  // The contact pair's own entries: zero until its tangent is added.
+  EXPECT_TRUE(holds(grown, 1, 0, 10, 2));
+  EXPECT_EQ(grown.matrix().coeff(6 * 1 + 0, 6 * 10 + 2), 0.0);
+}
+
+TEST(Assembler, CouplingsThePatternHoldsAlreadyDoNotRebuildIt) {
+  const Model m = two_beams();
+  Assembler assembler(m, std::vector<char>(6 * m.nodes.size(), 0));
+  const int version = assembler.pattern_version();
+  // Nodes of one element: the beams' pattern holds them; listed, not rebuilt.
+  EXPECT_FALSE(assembler.ensure_couplings({ContactCoupling{{0, 1, 2, 2, 2, 2}, false}}));
+  EXPECT_EQ(assembler.pattern_version(), version);
+  EXPECT_EQ(assembler.couplings().size(), 1u);
+  // Listed or not, the pattern is the same: set_couplings (a checkpoint's restore) rebuilds it.
+  Assembler other(m, std::vector<char>(6 * m.nodes.size(), 0));
+  other.set_couplings(assembler.couplings());
+  EXPECT_EQ(other.couplings(), assembler.couplings());
+  EXPECT_EQ(other.matrix().nonZeros(), assembler.matrix().nonZeros());
 }
 
 } // namespace

@@ -1,5 +1,5 @@
 // The Newton iteration's controls: tolerances against the residual's round-off level, and the
-// tangent's pattern following the contact candidates down as well as up.
+// tangent's pattern following the contacts within reach down as well as up.
 
 #include "engine/assembly/assembler.hpp"
 #include "engine/contact/contact_set.hpp"
@@ -138,6 +138,29 @@ TEST(Newton, ThePatternDropsCouplingsNoCandidateNeeds) {
   Simulation sim(m, plain);
   EXPECT_THROW(sim.run(&watch), Interrupted);
   EXPECT_EQ(watch.increments, 8);
+}
+
+TEST(Newton, ThePatternCouplesOnlyThePairsWithinReachOfContact) {
+  // The paper's k = 1 deck: about 1 600 candidate pairs for 36 contacts. Every candidate coupled
+  // two yarns in the factor; pairs farther apart than the broad-phase margin no longer do (the
+  // k = 1 run 0.95 s -> 0.62 s, the picture frame's factorisation seven times faster).
+  const Model m =
+      read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "biaxial-k1.toml");
+  struct Watch : SimulationObserver {
+    int increments = 0;
+    void on_increment(const Simulation& s, const IncrementReport&) override {
+      ++increments;
+      const ContactSummary c = s.contact()->summary();
+      const std::size_t held = s.assembler().couplings().size();
+      EXPECT_GE(held, static_cast<std::size_t>(c.active)) << "increment " << increments;
+      EXPECT_LT(4 * held, static_cast<std::size_t>(c.candidates)) << "increment " << increments;
+      if (increments == 5)
+        throw Interrupted("enough");
+    }
+  } watch;
+  Simulation sim(m);
+  EXPECT_THROW(sim.run(&watch), Interrupted);
+  EXPECT_EQ(watch.increments, 5);
 }
 
 TEST(Newton, SetCouplingsShrinksThePatternBackToTheBeams) {
