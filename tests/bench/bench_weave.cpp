@@ -3,8 +3,8 @@
 //     of each stage per iteration, on the biaxial k = 1 test (dynamic, as the paper's) at the
 //     start of the loading: one warm-up increment of 1 ms (the contact candidates, the matrix
 //     pattern and its symbolic analysis settle), then kTimedIncrements increments of 1 ms are
-//     timed (2-4 Newton iterations each). Every candidate pair of the weave is in the pattern and
-//     in the broad and narrow phase from the first iteration; the crossings are still open there
+//     timed (2-4 Newton iterations each). Every candidate pair of the weave is in the broad and
+//     narrow phase from the first iteration, the pairs within reach in the pattern; the crossings are still open there
 //     (spline clearance 0.099 mm), so the contact assembly adds few pairs. Later in the toe, where
 //     the crossings close (t = 5 to 10 ms at n = 24), weaves of 16 x 16 and more need many Newton
 //     iterations or smaller increments (docs/performance.md): a window there would time the
