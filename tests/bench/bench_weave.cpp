@@ -4,11 +4,11 @@
 //     start of the loading: one warm-up increment of 1 ms (the contact candidates, the matrix
 //     pattern and its symbolic analysis settle), then kTimedIncrements increments of 1 ms are
 //     timed (2-4 Newton iterations each). Every candidate pair of the weave is in the broad and
-//     narrow phase from the first iteration, the pairs within reach in the pattern; the crossings are still open there
-//     (spline clearance 0.099 mm), so the contact assembly adds few pairs. Later in the toe, where
-//     the crossings close (t = 5 to 10 ms at n = 24), weaves of 16 x 16 and more need many Newton
-//     iterations or smaller increments (docs/performance.md): a window there would time the
-//     iterations of a struggling Newton, not the cost of one. Per iteration:
+//     narrow phase from the first iteration, the pairs within reach in the pattern; the crossings
+//     are still open there (spline clearance 0.099 mm), so the contact assembly adds few pairs.
+//     Later in the toe, where the crossings close (t = 5 to 10 ms at n = 24), weaves of 16 x 16 and
+//     more need many Newton iterations or smaller increments (docs/performance.md): a window there
+//     would time the iterations of a struggling Newton, not the cost of one. Per iteration:
 //       iteration_ms  wall time of the timed increments / their Newton iterations (each increment
 //                     also assembles once more to confirm convergence; that is counted too);
 //       broad_ms, narrow_ms, beam_assembly_ms, other_assembly_ms (zeroing, contact, inertia,
