@@ -229,12 +229,14 @@ void Simulation::apply_prescribed(double t_new) {
 
 /// The stages of one Newton iteration as a oneTBB flow graph, built once per simulation:
 ///
-///   broad phase (+ pattern growth, zeroing) --> narrow phase ----+
-///                                           +-> beam assembly ---+--> contact assembly
+///   broad phase (+ zeroing) --> narrow phase ----+
+///                           +-> beam assembly ---+--> contact assembly (+ pattern growth)
 ///
-/// The narrow phase and the beam assembly touch disjoint data, so they run side by side, each
-/// with parallel loops inside; the contact assembly waits for both and adds the pairs in sorted
-/// order, so the sums are the same on any thread count.
+/// The narrow phase and the beam assembly touch disjoint data (the beams write the matrix's
+/// values, the pattern stays), so they run side by side, each with parallel loops inside; the
+/// contact assembly waits for both, grows the pattern by the pairs the narrow phase found within
+/// reach (keeping the beams' values) and adds the pairs in sorted order, so the sums are the same
+/// on any thread count.
 struct Simulation::IterationGraph {
   tbb::flow::graph graph;
   tbb::flow::continue_node<tbb::flow::continue_msg> broad, narrow, beams, contact_assembly;
