@@ -121,33 +121,34 @@ struct Solve {
   double ub = 0.0;
 };
 
-/// First local minimiser in (0, 1] of phi(t) = |g0 + t g1 + t^2 g2|^2 / 2, the half squared
+/// First local minimiser in (0, t_end] of phi(t) = |g0 + t g1 + t^2 g2|^2 / 2, the half squared
 /// distance along a search direction (exact, as the curves are quadratic in u), given that
-/// phi'(0) = g0.g1 < 0; 1 if phi decreases on the whole interval. phi' is the cubic
+/// phi'(0) = g0.g1 < 0; t_end if phi decreases on the whole interval. phi' is the cubic
 /// c0 + c1 t + c2 t^2 + c3 t^3; it is monotone between the roots of phi'', so the first sign
 /// change is bracketed and bisected.
-double first_minimum_on_ray(const Vector3d& g0, const Vector3d& g1, const Vector3d& g2) {
+double first_minimum_on_ray(const Vector3d& g0, const Vector3d& g1, const Vector3d& g2,
+                            double t_end = 1.0) {
   const double c0 = g0.dot(g1);
   const double c1 = g1.squaredNorm() + 2.0 * g0.dot(g2);
   const double c2 = 3.0 * g1.dot(g2);
   const double c3 = 2.0 * g2.squaredNorm();
   auto slope = [&](double t) { return c0 + t * (c1 + t * (c2 + t * c3)); };
-  // Ends of the monotone pieces of phi' in (0, 1): roots of c1 + 2 c2 t + 3 c3 t^2.
-  double ends[3] = {1.0, 1.0, 1.0};
+  // Ends of the monotone pieces of phi' in (0, t_end): roots of c1 + 2 c2 t + 3 c3 t^2.
+  double ends[3] = {t_end, t_end, t_end};
   int n = 0;
   if (c3 > 0.0) {
     const double disc = c2 * c2 - 3.0 * c1 * c3;
     if (disc > 0.0) {
       const double root = std::sqrt(disc);
       for (const double t : {(-c2 - root) / (3.0 * c3), (-c2 + root) / (3.0 * c3)}) {
-        if (t > 0.0 && t < 1.0) {
+        if (t > 0.0 && t < t_end) {
           ends[n++] = t;
         }
       }
     }
   } else if (c2 != 0.0) {
     const double t = -c1 / (2.0 * c2);
-    if (t > 0.0 && t < 1.0) {
+    if (t > 0.0 && t < t_end) {
       ends[n++] = t;
     }
   }
@@ -163,7 +164,7 @@ double first_minimum_on_ray(const Vector3d& g0, const Vector3d& g1, const Vector
     }
     lo = hi;
   }
-  return 1.0;
+  return t_end;
 }
 
 /// Safeguarded Newton for min |g|^2 / 2 over (u_A, u_B) on the extended polynomials.
@@ -232,10 +233,17 @@ Solve newton_pair(const Matrix3d& xa, const SegmentBasis& ba, const Matrix3d& xb
     // A capped or modified step follows no trusted model over its whole length, and with the
     // Armijo test alone it may cross the valley of the nearest minimum and land in another one
     // (beyond a range): it starts instead at the first minimum of Phi along its direction.
+    // A modified step may go further than its length: along an eigenvector of H with next to no
+    // curvature (two crimped yarns pressed together at a shallow crossing angle, where the
+    // distance varies by 1e-9 m over a fifth of a segment along the valley between them) the
+    // modified curvature is kShift * scale, not the valley's, and steps of that length crept
+    // along the valley for the whole iteration limit. The ray is searched up to a segment's
+    // length; the first minimum on it is still the nearest.
     double t = 1.0;
     if ((capped || !definite) && e.r.dot(step) < 0.0) {
+      const double t_end = capped ? 1.0 : kMaxStep / length;
       t = first_minimum_on_ray(e.g, step(0) * e.ga + step(1) * e.gb,
-                               0.5 * (step(0) * step(0) * gaa + step(1) * step(1) * gbb));
+                               0.5 * (step(0) * step(0) * gaa + step(1) * step(1) * gbb), t_end);
     }
     if (!(definite && length < kTrustedStep)) {
       const double slope = e.r.dot(step);
