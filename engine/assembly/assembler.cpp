@@ -230,12 +230,11 @@ void Assembler::add_node_block(int node, int row_offset, int col_offset,
     }
 }
 
-bool Assembler::ensure_couplings(const std::vector<ContactCoupling>& groups) {
-  std::vector<ContactCoupling> asked(groups);
-  std::sort(asked.begin(), asked.end());
-  asked.erase(std::unique(asked.begin(), asked.end()), asked.end());
+bool Assembler::ensure_couplings(std::vector<ContactCoupling> groups) {
+  std::sort(groups.begin(), groups.end());
+  groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
   std::vector<ContactCoupling> unlisted;
-  std::set_difference(asked.begin(), asked.end(), couplings_.begin(), couplings_.end(),
+  std::set_difference(groups.begin(), groups.end(), couplings_.begin(), couplings_.end(),
                       std::back_inserter(unlisted));
   if (unlisted.empty())
     return false;

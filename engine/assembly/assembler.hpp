@@ -70,7 +70,7 @@ public:
   /// contact pair comes within reach is completed, not started again, and every entry is the
   /// same sum as if the pattern had held the coupling from the start. Cost: a merge of the sorted
   /// groups with couplings() and, for the groups not in it, a look-up of their entries.
-  bool ensure_couplings(const std::vector<ContactCoupling>& groups);
+  bool ensure_couplings(std::vector<ContactCoupling> groups);
   /// Makes the pattern hold exactly these contact couplings besides the beams': couplings no
   /// pair needs any more are dropped, so that the pattern (and the factorisation's fill) follows
   /// the contacts down as well as up. Zeroes the matrix when the pattern changes. Returns true

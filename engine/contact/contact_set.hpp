@@ -6,6 +6,7 @@
 // surface_contact_set.hpp); ContactStage (contact_stage.hpp) runs all of a model's, in a fixed
 // order.
 
+#include "contact/spline_contact.hpp" // ProjectionStatus
 #include "engine/assembly/assembler.hpp"
 #include "engine/model/model.hpp"
 #include "engine/state/state.hpp"
@@ -73,6 +74,14 @@ struct ContactSummary {
   /// closes, so the Newton iteration can tell a step that crossed the contact's kink.
   std::uint64_t active_set = 0;
 };
+
+/// Whether a pair's last projection asks for its coupling in the tangent's pattern
+/// (ContactSet::couplings): active, or converged in range with a gap below `reach` (m, the
+/// definition's broad-phase margin). Spline and surface results alike.
+template <class Result>
+bool needs_coupling(const Result& r, double reach) {
+  return r.active || (r.status == contact::ProjectionStatus::Converged && r.gap < reach);
+}
 
 /// Folds an active pair (definition, first, second) into ContactSummary::active_set.
 inline std::uint64_t fold_active_pair(std::uint64_t h, int definition, int first, int second) {

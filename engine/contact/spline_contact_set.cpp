@@ -331,9 +331,7 @@ std::vector<ContactCoupling> SplineContactSet::couplings() const {
   std::vector<ContactCoupling> out;
   for (const Work& item : work_) {
     const Definition& d = *definitions_[item.definition];
-    const bool near =
-        item.result.status == contact::ProjectionStatus::Converged && item.result.gap < d.reach;
-    if (item.result.active || near)
+    if (needs_coupling(item.result, d.reach))
       out.push_back({nodes_of(d, item.pair), false});
   }
   return out;

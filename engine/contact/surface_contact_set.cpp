@@ -448,9 +448,7 @@ std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
   std::vector<ContactCoupling> out;
   for (const Work& item : work_) {
     const Definition& d = *definitions_[item.definition];
-    const bool near =
-        item.result.status == contact::ProjectionStatus::Converged && item.result.gap < d.reach;
-    if (!item.result.active && !near)
+    if (!needs_coupling(item.result, d.reach))
       continue;
     const std::array<int, 4> n = nodes_of(d, item.pair);
     out.push_back({{n[0], n[1], n[2], n[3], n[3], n[3]}, true});
