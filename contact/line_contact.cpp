@@ -1,6 +1,6 @@
 #include "contact/line_contact.hpp"
 
-#include "contact/projection_jet.hpp"
+#include "contact/all_angle_jet.hpp"
 
 #include <Eigen/Geometry>
 
@@ -25,46 +25,6 @@ using Eigen::Vector3d;
 /// Half-width of the band around an interior knot (segments) in which ownership is decided by
 /// the knot test (as in spline_contact.cpp).
 constexpr double kKnotBand = 1e-8;
-constexpr int kMaxGauss = 10;
-
-/// Gauss-Legendre points and weights on [-1/2, 1/2] (weights sum to 1), by Newton's method on
-/// the Legendre polynomial P_n (Abramowitz and Stegun 25.4.29; the starting guesses are
-/// Tricomi's).
-struct GaussRule {
-  int n = 0;
-  std::array<double, kMaxGauss> u{};
-  std::array<double, kMaxGauss> w{};
-};
-
-GaussRule gauss_rule(int n) {
-  GaussRule rule;
-  rule.n = std::clamp(n, 1, kMaxGauss);
-  n = rule.n;
-  for (int i = 0; i < n; ++i) {
-    double z = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5));
-    double dp = 1.0;
-    for (int it = 0; it < 100; ++it) {
-      double p0 = 1.0, p1 = z;
-      for (int k = 2; k <= n; ++k) {
-        const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
-        p0 = p1;
-        p1 = p2;
-      }
-      if (n == 1) {
-        p1 = z;
-        p0 = 1.0;
-      }
-      dp = n * (z * p1 - p0) / (z * z - 1.0);
-      const double dz = p1 / dp;
-      z -= dz;
-      if (std::abs(dz) < 1e-15)
-        break;
-    }
-    rule.u[i] = 0.5 * z;
-    rule.w[i] = 1.0 / ((1.0 - z * z) * dp * dp); // 2 / ((1 - z^2) P_n'^2), halved
-  }
-  return rule;
-}
 
 /// Projection of point a onto segment (x, b) extended: the u where C'(u) . (C(u) - a) = 0, a
 /// local minimum of |C(u) - a|^2 / 2, by safeguarded Newton from the projection onto the chord.
@@ -140,22 +100,8 @@ bool owns_projection(const Matrix3d& x, const SegmentBasis& b, double u, const V
   return b.owns(b.global(u));
 }
 
-/// Squared sine of the angle between t1 and t2.
-template <int H>
-JetT<H> sine2_of(const Jet3T<H>& t1, const Jet3T<H>& t2) {
-  const JetT<H> c = dot(t1, t2);
-  return JetT<H>(1.0) - (c * c) / (dot(t1, t1) * dot(t2, t2));
-}
-
 double sine2_of(const Vector3d& t1, const Vector3d& t2) {
   return t1.cross(t2).squaredNorm() / (t1.squaredNorm() * t2.squaredNorm());
-}
-
-template <int H>
-JetT<H> share_jet(const JetT<H>& sine2, const AllAngleOptions& opt) {
-  double ds = 0.0, d2s = 0.0;
-  const double s = point_share(sine2.v, opt, &ds, &d2s);
-  return apply(sine2, s, ds, d2s);
 }
 
 /// One Gauss point's term of the line potential, w |C_A'(u)| (1 - s) U(p) line_scale, as a jet
@@ -170,13 +116,7 @@ JetT<H> gauss_point_term(const Matrix3d& control_A, const SegmentBasis& basis_A,
   const J fixed(u);
   const Jet3T<H> ja = jet_point(control_A, basis_A, 0, fixed);
   const Jet3T<H> jta = jet_tangent(control_A, basis_A, 0, fixed);
-  J v(v0);
-  for (int step = 0; step < 2; ++step) {
-    const Jet3T<H> d = jet_point(control_B, basis_B, 3, v) - ja;
-    const Jet3T<H> t = jet_tangent(control_B, basis_B, 3, v);
-    const Jet3T<H> k = jet_curvature(control_B, basis_B, 3, v);
-    v = v - dot(t, d) / (dot(t, t) + dot(k, d));
-  }
+  const J v = point_projection_jet(ja, control_B, basis_B, v0);
   const Jet3T<H> g = ja - jet_point(control_B, basis_B, 3, v);
   const Jet3T<H> jtb = jet_tangent(control_B, basis_B, 3, v);
   const J p = J(reach) - sqrt(dot(g, g));
@@ -204,6 +144,36 @@ JetT<H> point_share_jet(const Matrix3d& control_A, const SegmentBasis& basis_A, 
 
 } // namespace
 
+GaussRule gauss_rule(int n) {
+  GaussRule rule;
+  rule.n = std::clamp(n, 1, kMaxGaussPoints);
+  n = rule.n;
+  for (int i = 0; i < n; ++i) {
+    double z = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5));
+    double dp = 1.0;
+    for (int it = 0; it < 100; ++it) {
+      double p0 = 1.0, p1 = z;
+      for (int k = 2; k <= n; ++k) {
+        const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+        p0 = p1;
+        p1 = p2;
+      }
+      if (n == 1) {
+        p1 = z;
+        p0 = 1.0;
+      }
+      dp = n * (z * p1 - p0) / (z * z - 1.0);
+      const double dz = p1 / dp;
+      z -= dz;
+      if (std::abs(dz) < 1e-15)
+        break;
+    }
+    rule.u[i] = 0.5 * z;
+    rule.w[i] = 1.0 / ((1.0 - z * z) * dp * dp); // 2 / ((1 - z^2) P_n'^2), halved
+  }
+  return rule;
+}
+
 double point_share(double sine2, const AllAngleOptions& options, double* ds, double* d2s) {
   const double lo = options.line_sine * options.line_sine;
   const double hi = options.point_sine * options.point_sine;
@@ -228,6 +198,7 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
                   const InterfaceLaw& law, const AllAngleOptions& all_angle, LineContactResult& out,
                   const SplineContactOptions& options) {
   out.points = 0;
+  out.mask = 0;
   out.owned = 0;
   out.failed = 0;
   out.min_gap = std::numeric_limits<double>::infinity();
@@ -282,6 +253,8 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
       out.residual += e.g;
     }
     out.force += force;
+    out.mask |= static_cast<std::uint16_t>(1u << i);
+    out.u_B[i] = proj.u;
     ++out.points;
     if (reach - dist > deepest) {
       deepest = reach - dist;
@@ -309,6 +282,7 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
   out.point_evaluated = chord_sine2 >= gate * gate;
   out.point_share = 0.0;
   out.line_points = 0;
+  out.line_mask = 0;
   bool tangent_written = false;
   if (out.point_evaluated) {
     spline_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, start, law, out,
@@ -396,6 +370,8 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
   line_contact(control_A, basis_A, radius_A, control_B, basis_B, radius_B, law, all_angle, line,
                options);
   out.line_points = line.points;
+  out.line_mask = line.mask;
+  out.line_u = line.u_B;
   if (sensitivity && line.points > 0)
     sensitivity->valid = false;
   // A Gauss point without a projection (or a normal) is a hole in the line contact: as for the

@@ -11,6 +11,8 @@
 #include "contact/spline_curve.hpp"
 
 #include <Eigen/Core>
+#include <array>
+#include <cstdint>
 
 namespace yarnsim::contact {
 
@@ -28,6 +30,17 @@ struct AllAngleOptions {
   double line_scale = 1.0;
 };
 
+/// Gauss-Legendre points `u` and weights `w` on a segment's local range [-1/2, 1/2] (weights
+/// sum to 1); n in [1, kMaxGaussPoints].
+struct GaussRule {
+  int n = 0;
+  std::array<double, kMaxGaussPoints> u{};
+  std::array<double, kMaxGaussPoints> w{};
+};
+/// The rule of n points (n clamped to [1, kMaxGaussPoints]), by Newton's method on the Legendre
+/// polynomial P_n (Abramowitz and Stegun 25.4.29; Tricomi's starting guesses).
+GaussRule gauss_rule(int n);
+
 /// The point contact's share s of a contact whose tangents make an angle of squared sine
 /// `sine2`: 0 at or below line_sine, 1 at or above point_sine, and between them the quintic
 /// smoothstep 6 q^5 - 15 q^4 + 10 q^3 of q = (sine2 - line_sine^2) / (point_sine^2 -
@@ -43,7 +56,10 @@ struct LineContactResult {
   /// Gauss points whose projection onto B did not converge (skipped), beside those that left
   /// B's neighbourhood (another pair's).
   int failed = 0;
-  int owned = 0;          ///< Gauss points of A owned by this pair, in contact or not
+  int owned = 0; ///< Gauss points of A owned by this pair, in contact or not
+  /// Bit i: Gauss point i is among `points`; `u_B` its projection's local parameter on B.
+  std::uint16_t mask = 0;
+  std::array<double, kMaxGaussPoints> u_B{};
   double min_gap = 0.0;   ///< smallest effective gap of the owned points, m (infinite if none)
   double force = 0.0;     ///< sum over the points of weight * (1 - s) * line force, N
   double potential = 0.0; ///< J

@@ -4,6 +4,8 @@
 #include "contact/spline_curve.hpp"
 
 #include <Eigen/Core>
+#include <array>
+#include <cstdint>
 
 namespace yarnsim::contact {
 
@@ -80,6 +82,9 @@ struct ProjectionResult {
   double xi_B = 0.0;
 };
 
+/// Most Gauss points of the all-angle contact's line part on one segment (line_contact.hpp).
+inline constexpr int kMaxGaussPoints = 10;
+
 /// Contact state, residual and tangent of one segment pair. The 18 DOFs are the translations of
 /// A's three control points, then B's (each x, y, z).
 struct SplineContactResult {
@@ -105,6 +110,11 @@ struct SplineContactResult {
   bool point_evaluated = true;
   double point_share = 1.0;
   int line_points = 0;
+  /// The line part's Gauss points in contact (bit i: Gauss point i of A's segment, with a line
+  /// share above 0) and the local parameters on B's segment of their projections (valid where
+  /// the bit is set): what the line contact's friction (line_friction.hpp) starts from.
+  std::uint16_t line_mask = 0;
+  std::array<double, kMaxGaussPoints> line_u{};
   /// Contact contribution to the internal force vector: dU/dx = -f d|g|/dx, N. Added to the
   /// internal forces; for A it is -f N_k(xi_A) n at control point k (the contact pushes A along
   /// +n).

@@ -1,0 +1,317 @@
+// Coulomb friction on the all-angle contact's line part (contact/line_friction.hpp): straight
+// yarns side by side in stick (eps_t lambda L times the offset) and in slip (mu times the line's
+// normal force); the tangent against central differences of the residual in stick and in slip,
+// at random configurations from parallel into the blend, with Gauss points whose projections lie
+// in any segment of the master and anchors in the neighbouring ones; the return mapping onto the
+// cone; a rigid rotation of a stuck pair rotates its force.
+#include "contact/line_friction.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+namespace yarnsim::contact {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using Vec = Eigen::VectorXd;
+using Mat = Eigen::MatrixXd;
+
+constexpr double kH = 1.1e-3; // control point spacing, m
+constexpr double kRadius = 2.840909e-4;
+constexpr double kEps = 1.5e6; // N/m
+constexpr double kEpsT = 5e5;  // N/m
+constexpr int kPoints = 6;     // control points per curve: 4 segments
+constexpr int kSegments = kPoints - 2;
+
+const SplineCurve& curve() {
+  static const SplineCurve c(kPoints);
+  return c;
+}
+
+struct Curves {
+  Eigen::Matrix3Xd a = Eigen::Matrix3Xd::Zero(3, kPoints);
+  Eigen::Matrix3Xd b = Eigen::Matrix3Xd::Zero(3, kPoints);
+};
+
+/// A along x; B turned by `angle` about z, shifted by `shift` along its axis, `distance` above
+/// A; random transverse perturbations of `wobble` (m).
+Curves make_curves(double angle, double distance, double shift, double wobble, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Curves c;
+  const Vector3d axis(std::cos(angle), std::sin(angle), 0.0);
+  for (int k = 0; k < kPoints; ++k) {
+    const double s = (k - 0.5 * (kPoints - 1)) * kH;
+    c.a.col(k) = Vector3d(s, 0, 0) + wobble * Vector3d(0.1 * u(rng), u(rng), u(rng));
+    c.b.col(k) = (s + shift) * axis + Vector3d(0, 0, distance) +
+                 wobble * Vector3d(0.1 * u(rng), u(rng), u(rng));
+  }
+  return c;
+}
+
+/// Histories of every Gauss point of A's segments (anchors on B, global parameters).
+using Histories = std::array<std::array<LineFrictionHistory, kMaxGaussPoints>, kSegments>;
+
+/// The friction of every segment pair, summed over the 2 kPoints control points (A's first), on
+/// fixed `histories`; `anchored` (optional) receives, per A segment, the projections' global
+/// parameters on B of the Gauss points in contact (the history of a first touch).
+struct Total {
+  double normal = 0.0; ///< sum of the evaluated points' N
+  Vector3d on_a = Vector3d::Zero();
+  int points = 0, slipping = 0;
+  Vec residual = Vec::Zero(6 * kPoints);
+  Mat tangent = Mat::Zero(6 * kPoints, 6 * kPoints);
+};
+
+Total total(const Curves& c, const AllAngleOptions& opt, const CoulombFriction& friction,
+            const Histories& histories, Histories* anchored = nullptr) {
+  static const LinearPenalty law(kEps);
+  Total t;
+  SplineContactResult r;
+  LineFrictionResult f;
+  const GaussRule rule = gauss_rule(opt.gauss_points);
+  for (int i = 0; i < kSegments; ++i)
+    for (int j = 0; j < kSegments; ++j) {
+      all_angle_contact(curve().control_points(c.a, i), curve().segment(i), kRadius,
+                        curve().control_points(c.b, j), curve().segment(j), kRadius, {}, law, opt,
+                        r);
+      EXPECT_NE(r.status, ProjectionStatus::NotConverged) << i << " " << j;
+      if (anchored != nullptr)
+        for (int k = 0; k < rule.n; ++k)
+          if (r.line_mask & (1u << k))
+            (*anchored)[i][k] = {curve().segment(j).global(r.line_u[k]), true};
+      line_friction(curve().control_points(c.a, i), curve().segment(i), kRadius,
+                    curve().control_points(c.b, j), curve().segment(j), kRadius, law, opt, r,
+                    0xffff, histories[i], friction, f);
+      for (int k = 0; k < rule.n; ++k)
+        if (f.mask & (1u << k)) {
+          ++t.points;
+          t.slipping += f.points[k].slipping;
+          t.normal += f.points[k].normal_force;
+          t.on_a += f.points[k].force;
+        }
+      const int dofs[6] = {i, i + 1, i + 2, kPoints + j, kPoints + j + 1, kPoints + j + 2};
+      for (int p = 0; p < 6; ++p) {
+        t.residual.segment<3>(3 * dofs[p]) += f.residual.segment<3>(3 * p);
+        for (int q = 0; q < 6; ++q)
+          t.tangent.block<3, 3>(3 * dofs[p], 3 * dofs[q]) += f.tangent.block<3, 3>(3 * p, 3 * q);
+      }
+    }
+  return t;
+}
+
+double& dof(Curves& c, int i) {
+  const int point = i / 3, d = i % 3;
+  return point < kPoints ? c.a(d, point) : c.b(d, point - kPoints);
+}
+
+/// Histories anchored `offset` (segments of B) from where every Gauss point in contact touches
+/// now, with the stick flag `stuck`.
+Histories offset_histories(const Curves& c, const AllAngleOptions& opt, double offset, bool stuck) {
+  const CoulombFriction none(0.0, 0.0, kEpsT);
+  Histories h{}, now{};
+  total(c, opt, none, h, &now);
+  for (auto& segment : now)
+    for (LineFrictionHistory& p : segment) {
+      p.xi_B += offset * curve().segment(0).length();
+      p.stuck = stuck;
+    }
+  return now;
+}
+
+AllAngleOptions options() {
+  AllAngleOptions opt;
+  opt.line_scale = 1.0 / (2 * kRadius);
+  return opt;
+}
+
+TEST(LineFriction, StraightYarnsSideBySideStickThenSlipAtMuTimesTheLineLoad) {
+  // A on B along x, pressed by p = 1 um; B three times as long, so every Gauss point of A touches
+  // one of B's interior segments (C_B,u = 3 kH). Anchors `offset` segments ahead along B (+x):
+  // g_t = C_B,u offset points +x, so does the force on A.
+  const AllAngleOptions opt = options();
+  std::mt19937 rng(1);
+  const double p = 1e-6;
+  Curves c = make_curves(0.0, 2 * kRadius - p, 0.0, 0.0, rng);
+  c.b.row(0) *= 3.0;
+  const double length = c.a(0, kPoints - 1) - c.a(0, 0);
+  const double lambda = opt.line_scale;
+  const double normal = kEps * lambda * p * length;
+  const double mu = 0.3;
+  const CoulombFriction friction(mu, mu, kEpsT);
+  // Stick: 1e-4 segments of B = 3.3e-7 m, below mu f / eps_t = 9e-7 m.
+  const double stick_offset = 1e-4;
+  const Total stick = total(c, opt, friction, offset_histories(c, opt, stick_offset, true));
+  EXPECT_EQ(stick.points, opt.gauss_points * kSegments);
+  EXPECT_EQ(stick.slipping, 0);
+  EXPECT_NEAR(stick.normal, normal, 1e-9 * normal);
+  const double slide = stick_offset * 3.0 * kH;
+  EXPECT_NEAR(stick.on_a.x(), kEpsT * lambda * length * slide, 1e-9 * stick.on_a.norm());
+  EXPECT_NEAR(stick.on_a.y(), 0.0, 1e-12 * stick.on_a.norm());
+  EXPECT_NEAR(stick.on_a.z(), 0.0, 1e-12 * stick.on_a.norm());
+  // Slip: 1e-3 segments = 3.3e-6 m.
+  const Total slip = total(c, opt, friction, offset_histories(c, opt, 1e-3, true));
+  EXPECT_EQ(slip.slipping, slip.points);
+  EXPECT_NEAR(slip.on_a.x(), mu * normal, 1e-9 * mu * normal);
+  // The residual balances: the force on B is the opposite of the force on A.
+  Vector3d on_a = Vector3d::Zero(), on_b = Vector3d::Zero();
+  for (int k = 0; k < kPoints; ++k) {
+    on_a -= slip.residual.segment<3>(3 * k);
+    on_b -= slip.residual.segment<3>(3 * (kPoints + k));
+  }
+  EXPECT_NEAR((on_a - slip.on_a).norm(), 0.0, 1e-12 * mu * normal);
+  EXPECT_NEAR((on_a + on_b).norm(), 0.0, 1e-12 * mu * normal);
+}
+
+/// Relative error of the tangent against central differences of the residual, histories fixed.
+double tangent_error(const Curves& c, const AllAngleOptions& opt, const CoulombFriction& friction,
+                     const Histories& h, Total& t0) {
+  t0 = total(c, opt, friction, h);
+  const double step = 1e-10; // m, against gaps of microns and anchors 1e-7 to 1e-5 m away
+  Mat fd(6 * kPoints, 6 * kPoints);
+  for (int i = 0; i < 6 * kPoints; ++i) {
+    Curves p = c, m = c;
+    dof(p, i) += step;
+    dof(m, i) -= step;
+    fd.col(i) =
+        (total(p, opt, friction, h).residual - total(m, opt, friction, h).residual) / (2 * step);
+  }
+  return (fd - t0.tangent).lpNorm<Eigen::Infinity>() / t0.tangent.lpNorm<Eigen::Infinity>();
+}
+
+TEST(LineFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
+  const AllAngleOptions opt = options();
+  const CoulombFriction friction(0.4, 0.3, kEpsT);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double worst = 0;
+  // Parallel, nearly parallel, line only, and into the blend (10 to 20 degrees); contact points
+  // anywhere on B (shift), anchors up to 0.6 segment away (in the neighbouring segment).
+  for (const double angle : {0.0, 2e-3, 0.05, 0.15, 0.22, 0.3})
+    for (const bool slipping : {false, true})
+      for (int trial = 0; trial < 2; ++trial) {
+        const double shift = (u(rng) - 0.5) * kH;
+        const Curves c = make_curves(angle, 2 * kRadius - 1e-5, shift, 0.02 * kRadius, rng);
+        // Stick: 1e-5 segments (1.1e-8 m, inside the cone of about 6e-6 m); slip: 0.6 segment.
+        const double offset = (slipping ? 0.6 : 1e-5) * (u(rng) < 0.5 ? -1 : 1);
+        const Histories h = offset_histories(c, opt, offset, trial == 0);
+        Total t;
+        const double e = tangent_error(c, opt, friction, h, t);
+        std::printf("angle %.3f, %s: %d points (%d slipping), tangent %.1e\n", angle,
+                    slipping ? "slip" : "stick", t.points, t.slipping, e);
+        ASSERT_GT(t.points, 0) << angle;
+        EXPECT_EQ(t.slipping, slipping ? t.points : 0) << angle;
+        EXPECT_LT(e, 1e-6) << angle << (slipping ? " slip" : " stick");
+        worst = std::max(worst, e);
+      }
+  std::printf("worst: %.1e\n", worst);
+}
+
+TEST(LineFriction, ReturnMappingPutsTheAnchorOnTheCone) {
+  // A slipping point's returned history, evaluated at the same positions, gives the same force
+  // on the cone; as a point that slipped it keeps slipping there (slips()).
+  const AllAngleOptions opt = options();
+  const CoulombFriction friction(0.3, 0.3, kEpsT);
+  static const LinearPenalty law(kEps);
+  std::mt19937 rng(3);
+  const Curves c = make_curves(0.05, 2 * kRadius - 1e-5, 0.3 * kH, 0.02 * kRadius, rng);
+  const Histories h = offset_histories(c, opt, 0.4, true);
+  SplineContactResult r;
+  LineFrictionResult first, again;
+  const int i = 1, j = 1;
+  all_angle_contact(curve().control_points(c.a, i), curve().segment(i), kRadius,
+                    curve().control_points(c.b, j), curve().segment(j), kRadius, {}, law, opt, r);
+  ASSERT_NE(r.line_mask, 0);
+  line_friction(curve().control_points(c.a, i), curve().segment(i), kRadius,
+                curve().control_points(c.b, j), curve().segment(j), kRadius, law, opt, r, 0xffff,
+                h[i], friction, first);
+  std::array<LineFrictionHistory, kMaxGaussPoints> returned{};
+  for (int k = 0; k < kMaxGaussPoints; ++k)
+    returned[k] = first.points[k].history;
+  line_friction(curve().control_points(c.a, i), curve().segment(i), kRadius,
+                curve().control_points(c.b, j), curve().segment(j), kRadius, law, opt, r, 0xffff,
+                returned, friction, again);
+  ASSERT_EQ(again.mask, first.mask);
+  for (int k = 0; k < kMaxGaussPoints; ++k) {
+    if (!(first.mask & (1u << k)))
+      continue;
+    const LineFrictionPoint &a = first.points[k], &b = again.points[k];
+    EXPECT_TRUE(a.slipping);
+    EXPECT_GT(a.slip_increment, 0.0);
+    EXPECT_NEAR(a.dissipation, 0.3 * a.normal_force * a.slip_increment, 1e-15);
+    EXPECT_NEAR(a.force.norm(), 0.3 * a.normal_force, 1e-12 * a.force.norm());
+    EXPECT_TRUE(b.slipping);
+    EXPECT_NEAR((b.force - a.force).norm(), 0.0, 1e-9 * a.force.norm());
+    EXPECT_NEAR(b.slip_increment, 0.0, 1e-9 * a.slip_increment);
+  }
+}
+
+TEST(LineFriction, RigidRotationOfAStuckPairRotatesItsForce) {
+  // Up to 90 degrees about an axis across the yarns: the anchors are material (global
+  // parameters), so the stuck force turns with the pair and keeps its magnitude.
+  const AllAngleOptions opt = options();
+  const CoulombFriction friction(0.3, 0.3, kEpsT);
+  std::mt19937 rng(9);
+  const Curves c = make_curves(0.03, 2 * kRadius - 1e-5, 0.2 * kH, 0.02 * kRadius, rng);
+  const Histories h = offset_histories(c, opt, 1e-4, true);
+  const Total before = total(c, opt, friction, h);
+  ASSERT_GT(before.points, 0);
+  ASSERT_EQ(before.slipping, 0);
+  const Vector3d centre(0.3e-3, -0.1e-3, 0.2e-3);
+  for (const double angle : {0.3, 1.0, std::acos(-1.0) / 2}) {
+    const Matrix3d q = Eigen::AngleAxisd(angle, Vector3d(0.3, 1.0, -0.5).normalized()).matrix();
+    Curves turned = c;
+    for (int k = 0; k < kPoints; ++k) {
+      turned.a.col(k) = centre + q * (c.a.col(k) - centre);
+      turned.b.col(k) = centre + q * (c.b.col(k) - centre);
+    }
+    const Total after = total(turned, opt, friction, h);
+    EXPECT_EQ(after.points, before.points);
+    EXPECT_EQ(after.slipping, 0);
+    EXPECT_NEAR((after.on_a - q * before.on_a).norm(), 0.0, 1e-9 * before.on_a.norm()) << angle;
+  }
+}
+
+TEST(LineFriction, OnlyGaussPointsInContactWithAHistoryCarryFriction) {
+  // The mask of points with a history selects them; points without contact carry none.
+  const AllAngleOptions opt = options();
+  const CoulombFriction friction(0.3, 0.3, kEpsT);
+  static const LinearPenalty law(kEps);
+  std::mt19937 rng(1);
+  Curves c = make_curves(0.0, 2 * kRadius - 1e-6, 0.0, 0.0, rng);
+  c.b.row(0) *= 1.5;
+  const Histories h = offset_histories(c, opt, 1e-4, true);
+  SplineContactResult r;
+  LineFrictionResult f;
+  all_angle_contact(curve().control_points(c.a, 1), curve().segment(1), kRadius,
+                    curve().control_points(c.b, 1), curve().segment(1), kRadius, {}, law, opt, r);
+  ASSERT_NE(r.line_mask, 0);
+  line_friction(curve().control_points(c.a, 1), curve().segment(1), kRadius,
+                curve().control_points(c.b, 1), curve().segment(1), kRadius, law, opt, r, 0, h[1],
+                friction, f);
+  EXPECT_EQ(f.mask, 0);
+  EXPECT_EQ(f.residual.norm(), 0.0);
+  const std::uint16_t some = r.line_mask & 0x5;
+  line_friction(curve().control_points(c.a, 1), curve().segment(1), kRadius,
+                curve().control_points(c.b, 1), curve().segment(1), kRadius, law, opt, r, 0x5, h[1],
+                friction, f);
+  EXPECT_EQ(f.mask, some);
+  // Apart: no Gauss point in contact, no friction.
+  const Curves apart = make_curves(0.0, 2 * kRadius + 1e-6, 0.0, 0.0, rng);
+  all_angle_contact(curve().control_points(apart.a, 1), curve().segment(1), kRadius,
+                    curve().control_points(apart.b, 1), curve().segment(1), kRadius, {}, law, opt,
+                    r);
+  EXPECT_EQ(r.line_mask, 0);
+  line_friction(curve().control_points(apart.a, 1), curve().segment(1), kRadius,
+                curve().control_points(apart.b, 1), curve().segment(1), kRadius, law, opt, r,
+                0xffff, h[1], friction, f);
+  EXPECT_EQ(f.mask, 0);
+}
+
+} // namespace
+} // namespace yarnsim::contact
