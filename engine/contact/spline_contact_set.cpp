@@ -166,6 +166,13 @@ void SplineContactSet::control_points(const Definition& d, const broadphase::Can
   }
 }
 
+contact::AllAngleOptions SplineContactSet::all_angle_of(const Definition& d, double ra,
+                                                        double rb) const {
+  contact::AllAngleOptions all_angle = d.all_angle;
+  all_angle.line_scale = d.line_per_point > 0 ? d.line_per_point : 1.0 / (ra + rb);
+  return all_angle;
+}
+
 bool SplineContactSet::update_candidates(const State& state) {
   const Eigen::Matrix3Xd& x = state.x;
   bool changed = work_.empty() && candidates_version_ == 0;
@@ -212,45 +219,42 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   std::vector<double> half_compaction(definitions_.size());
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     half_compaction[k] = definitions_[k]->compaction.at(time_) / 2;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t w = range.begin(); w != range.end(); ++w) {
-                        Work& item = work_[w];
-                        const Definition& d = *definitions_[item.definition];
-                        Eigen::Matrix3d A, B;
-                        control_points(d, item.pair, x, A, B);
-                        contact::ProjectionStart start;
-                        if (item.warm >= 0)
-                          start = {committed_[item.warm].xi_A, committed_[item.warm].xi_B, true};
-                        const auto& ca = curves_[d.spline[item.pair.first]];
-                        const auto& cb = curves_[d.spline[item.pair.second]];
-                        // The compaction grows both contact radii by half of it.
-                        const double half = half_compaction[item.definition];
-                        const double ra = d.radius[item.pair.first] + half;
-                        const double rb = d.radius[item.pair.second] + half;
-                        const auto& sa = ca.segment(d.segment[item.pair.first]);
-                        const auto& sb = cb.segment(d.segment[item.pair.second]);
-                        contact::SplineContactSensitivity* sensitivity =
-                            d.friction ? &sensitivity_[w] : nullptr;
-                        const contact::PairRates* pair_rates = nullptr;
-                        contact::PairRates local_rates;
-                        if (rates != nullptr && d.damped) {
-                          pair_velocities(d, item.pair, *rates, local_rates);
-                          pair_rates = &local_rates;
-                        }
-                        if (d.line_contact) {
-                          // The first segment of a pair is the line contact's slave.
-                          contact::AllAngleOptions all_angle = d.all_angle;
-                          all_angle.line_scale =
-                              d.line_per_point > 0 ? d.line_per_point : 1.0 / (ra + rb);
-                          contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle,
-                                                     item.result, options, sensitivity, pair_rates);
-                        } else {
-                          contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result,
-                                                  options, pair_rates, sensitivity);
-                        }
-                      }
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, work_.size(), 16),
+      [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t w = range.begin(); w != range.end(); ++w) {
+          Work& item = work_[w];
+          const Definition& d = *definitions_[item.definition];
+          Eigen::Matrix3d A, B;
+          control_points(d, item.pair, x, A, B);
+          contact::ProjectionStart start;
+          if (item.warm >= 0)
+            start = {committed_[item.warm].xi_A, committed_[item.warm].xi_B, true};
+          const auto& ca = curves_[d.spline[item.pair.first]];
+          const auto& cb = curves_[d.spline[item.pair.second]];
+          // The compaction grows both contact radii by half of it.
+          const double half = half_compaction[item.definition];
+          const double ra = d.radius[item.pair.first] + half;
+          const double rb = d.radius[item.pair.second] + half;
+          const auto& sa = ca.segment(d.segment[item.pair.first]);
+          const auto& sb = cb.segment(d.segment[item.pair.second]);
+          contact::SplineContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
+          const contact::PairRates* pair_rates = nullptr;
+          contact::PairRates local_rates;
+          if (rates != nullptr && d.damped) {
+            pair_velocities(d, item.pair, *rates, local_rates);
+            pair_rates = &local_rates;
+          }
+          if (d.line_contact) {
+            // The first segment of a pair is the line contact's slave.
+            contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle_of(d, ra, rb),
+                                       item.result, options, sensitivity, pair_rates);
+          } else {
+            contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options,
+                                    pair_rates, sensitivity);
+          }
+        }
+      });
 
   if (any_friction_) {
     // Friction at the active point contacts, on the histories of the last converged increment
@@ -305,6 +309,39 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
         });
   }
 
+  if (any_friction_) {
+    // Friction at the line contacts' Gauss points, on the histories of the last converged
+    // increment.
+    line_items_.clear();
+    for (std::size_t w = 0; w < work_.size(); ++w)
+      if (work_[w].result.line_mask != 0 && definitions_[work_[w].definition]->friction)
+        line_items_.push_back(static_cast<int>(w));
+    line_work_.resize(line_items_.size());
+    line_friction_.resize(line_items_.size());
+    assign_line_histories();
+    contact::FrictionOptions friction_options;
+    friction_options.compute_tangent = want_tangent;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, line_items_.size(), 4),
+        [&](const tbb::blocked_range<std::size_t>& range) {
+          for (std::size_t l = range.begin(); l != range.end(); ++l) {
+            const Work& item = work_[line_items_[l]];
+            const Definition& d = *definitions_[item.definition];
+            Eigen::Matrix3d A, B;
+            control_points(d, item.pair, x, A, B);
+            const double half = half_compaction[item.definition];
+            const double ra = d.radius[item.pair.first] + half;
+            const double rb = d.radius[item.pair.second] + half;
+            const auto& sa = curves_[d.spline[item.pair.first]].segment(d.segment[item.pair.first]);
+            const auto& sb =
+                curves_[d.spline[item.pair.second]].segment(d.segment[item.pair.second]);
+            contact::line_friction(A, sa, ra, B, sb, rb, *d.law, all_angle_of(d, ra, rb),
+                                   item.result, line_work_[l].with_history, line_work_[l].history,
+                                   *d.friction, line_friction_[l], friction_options);
+          }
+        });
+  }
+
   summarise();
 
   // Veto: a pair in contact at the last converged increment whose projection failed or jumped.
@@ -344,6 +381,7 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   if (want_tangent && !tangents_computed_)
     throw std::logic_error("SplineContactSet::assemble: tangents asked for after a projection "
                            "without tangents");
+  std::size_t next_line = 0; // line_items_ ascend with the work items
   for (const Work& item : work_) {
     if (!item.result.active)
       continue;
@@ -351,14 +389,27 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
     const std::size_t w = static_cast<std::size_t>(&item - work_.data());
     const contact::SplineFrictionResult* f =
         any_friction_ && friction_[w].active ? &friction_[w] : nullptr;
+    while (next_line < line_items_.size() && line_items_[next_line] < static_cast<int>(w))
+      ++next_line;
+    const contact::LineFrictionResult* line =
+        next_line < line_items_.size() && line_items_[next_line] == static_cast<int>(w) &&
+                line_friction_[next_line].mask != 0
+            ? &line_friction_[next_line]
+            : nullptr;
     for (int a = 0; a < 6; ++a) {
       residual.segment<3>(6 * n[a]) += item.result.residual.segment<3>(3 * a);
       if (f)
         residual.segment<3>(6 * n[a]) += f->residual.segment<3>(3 * a);
+      if (line)
+        residual.segment<3>(6 * n[a]) += line->residual.segment<3>(3 * a);
     }
     if (want_tangent) {
-      if (f) {
-        const Eigen::Matrix<double, 18, 18> block = item.result.tangent + f->tangent;
+      if (f || line) {
+        Eigen::Matrix<double, 18, 18> block = item.result.tangent;
+        if (f)
+          block += f->tangent;
+        if (line)
+          block += line->tangent;
         assembler.add_translation_block(n, block);
       } else {
         assembler.add_translation_block(n, item.result.tangent);
@@ -435,6 +486,41 @@ void SplineContactSet::assign_friction_histories() {
   }
 }
 
+void SplineContactSet::assign_line_histories() {
+  // A Gauss point of the slave segment keeps its history while it touches the same master
+  // spline, whichever of its segments owns the projection (the anchor is a global parameter of
+  // that spline). Each history goes to one point at most: the first work item that claims it.
+  std::vector<char> taken(line_committed_.size(), 0);
+  for (std::size_t l = 0; l < line_items_.size(); ++l) {
+    const Work& item = work_[line_items_[l]];
+    const Definition& d = *definitions_[item.definition];
+    const auto& sb = curves_[d.spline[item.pair.second]].segment(d.segment[item.pair.second]);
+    LineWork& lw = line_work_[l];
+    lw.with_history = lw.first_touch = 0;
+    for (int i = 0; i < contact::kMaxGaussPoints; ++i) {
+      const std::uint16_t bit = static_cast<std::uint16_t>(1u << i);
+      if (!(item.result.line_mask & bit))
+        continue;
+      const Snapshot::LineKey key{item.definition, item.pair.first, i, d.spline[item.pair.second]};
+      const auto it = std::lower_bound(
+          line_committed_.begin(), line_committed_.end(), key,
+          [](const Snapshot::LineWarm& w, const Snapshot::LineKey& k) { return w.key < k; });
+      const std::size_t c = static_cast<std::size_t>(it - line_committed_.begin());
+      if (it != line_committed_.end() && it->key == key && !taken[c]) {
+        taken[c] = 1;
+        lw.with_history |= bit;
+        lw.history[i] = {it->anchor, it->friction == 1};
+        lw.slip[i] = it->slip;
+      } else {
+        // Anchored where it touches if this increment converges (commit).
+        lw.first_touch |= bit;
+        lw.history[i] = {sb.global(item.result.line_u[i]), true};
+        lw.slip[i] = 0;
+      }
+    }
+  }
+}
+
 void SplineContactSet::commit() {
   // Keep warm starts of the current candidates only; pairs that left the list start cold.
   next_committed_.clear();
@@ -476,10 +562,40 @@ void SplineContactSet::commit() {
     }
   }
   std::swap(committed_, next_committed_);
+  // The line contact's Gauss points: committed in the order of the work items, then sorted; a
+  // point two pairs claimed keeps the first claim's history.
+  std::vector<Snapshot::LineWarm> line;
+  for (std::size_t l = 0; l < line_items_.size(); ++l) {
+    const Work& item = work_[line_items_[l]];
+    const Definition& d = *definitions_[item.definition];
+    const LineWork& lw = line_work_[l];
+    const contact::LineFrictionResult& f = line_friction_[l];
+    for (int i = 0; i < contact::kMaxGaussPoints; ++i) {
+      const std::uint16_t bit = static_cast<std::uint16_t>(1u << i);
+      const Snapshot::LineKey key{item.definition, item.pair.first, i, d.spline[item.pair.second]};
+      if (f.mask & bit) {
+        const contact::LineFrictionPoint& p = f.points[i];
+        line.push_back({key, p.history.xi_B, lw.slip[i] + p.slip_increment, p.slipping ? 2 : 1});
+        dissipated_ += p.dissipation;
+      } else if (lw.first_touch & bit) {
+        line.push_back({key, lw.history[i].xi_B, 0.0, 1});
+      }
+    }
+  }
+  std::stable_sort(
+      line.begin(), line.end(),
+      [](const Snapshot::LineWarm& a, const Snapshot::LineWarm& b) { return a.key < b.key; });
+  line.erase(std::unique(line.begin(), line.end(),
+                         [](const Snapshot::LineWarm& a, const Snapshot::LineWarm& b) {
+                           return a.key == b.key;
+                         }),
+             line.end());
+  line_committed_ = std::move(line);
 }
 
 std::vector<ContactPoint> SplineContactSet::points() const {
   std::vector<ContactPoint> out;
+  std::size_t next_line = 0; // line_items_ ascend with the work items
   for (const Work& w : work_) {
     if (!w.result.active)
       continue;
@@ -505,6 +621,21 @@ std::vector<ContactPoint> SplineContactSet::points() const {
         p.twist_slip = w.twist_slip + t.slip_increment;
       }
     }
+    // The line contact's Gauss points: their forces summed, slipping if one slips, the largest
+    // accumulated slip.
+    while (next_line < line_items_.size() && line_items_[next_line] < static_cast<int>(k))
+      ++next_line;
+    if (next_line < line_items_.size() && line_items_[next_line] == static_cast<int>(k)) {
+      const contact::LineFrictionResult& f = line_friction_[next_line];
+      for (int i = 0; i < contact::kMaxGaussPoints; ++i) {
+        if (!(f.mask & (1u << i)))
+          continue;
+        const contact::LineFrictionPoint& q = f.points[i];
+        p.tangential_force += q.force;
+        p.friction = std::max(p.friction, q.slipping ? 2 : 1);
+        p.slip = std::max(p.slip, line_work_[next_line].slip[i] + q.slip_increment);
+      }
+    }
   }
   return out;
 }
@@ -514,6 +645,7 @@ SplineContactSet::Snapshot SplineContactSet::snapshot() const {
   for (const auto& d : definitions_)
     out.search_boxes.push_back(d->searched);
   out.committed = committed_;
+  out.line_committed = line_committed_;
   out.pairs.reserve(work_.size());
   for (const Work& w : work_) {
     const contact::SplineContactResult& r = w.result;
@@ -572,7 +704,18 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
     r.normal = p.normal;
   }
   work_ = std::move(work);
+  for (const Snapshot::LineWarm& l : snapshot.line_committed) {
+    const auto [k, segment, point, spline] = l.key;
+    if (k < 0 || k >= static_cast<int>(definitions_.size()) || segment < 0 ||
+        segment >= static_cast<int>(definitions_[k]->spline.size()) || point < 0 ||
+        point >= definitions_[k]->all_angle.gauss_points || spline < 0 ||
+        spline >= static_cast<int>(curves_.size()))
+      throw std::invalid_argument(fmt::format(
+          "contact restart: a line contact point's history ({}, {}, {}, {}) does not fit the model",
+          k, segment, point, spline));
+  }
   committed_ = snapshot.committed;
+  line_committed_ = snapshot.line_committed;
   link_warm_starts(work_, committed_);
   candidates_version_ = snapshot.candidates_version;
   dissipated_ = snapshot.dissipated;
@@ -583,6 +726,9 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
     friction_.assign(work_.size(), {});
     twist_.assign(work_.size(), {});
   }
+  line_items_.clear();
+  line_work_.clear();
+  line_friction_.clear();
   summarise();
 }
 
@@ -632,6 +778,22 @@ void SplineContactSet::summarise() {
     summary_.torque += std::abs(t.torque);
     summary_.potential += t.energy;
     summary_.dissipation += t.dissipation;
+  }
+  for (std::size_t l = 0; l < line_items_.size(); ++l) {
+    const contact::LineFrictionResult& f = line_friction_[l];
+    const Work& w = work_[line_items_[l]];
+    for (int i = 0; i < contact::kMaxGaussPoints; ++i) {
+      if (!(f.mask & (1u << i)))
+        continue;
+      const contact::LineFrictionPoint& p = f.points[i];
+      ++(p.slipping ? summary_.slip : summary_.stick);
+      if (p.slipping) // a kink of the friction law, as above: one entry per Gauss point
+        summary_.active_set = fold_active_pair(
+            summary_.active_set, -(2 << 20) - 16 * w.definition - i, w.pair.first, w.pair.second);
+      summary_.tangential_force += p.force.norm();
+      summary_.potential += p.energy;
+      summary_.dissipation += p.dissipation;
+    }
   }
 }
 

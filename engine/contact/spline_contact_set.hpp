@@ -3,12 +3,15 @@
 // quadratic contact splines from the FCL-backed search, closest-point projections in parallel,
 // Coulomb friction at the active point contacts of definitions that have it (contact/friction.hpp:
 // anchors committed with converged increments, handed over between neighbouring segment pairs)
-// and, where asked for, torsional friction at the crossings (contact/torsional_friction.hpp),
-// assembly of the active pairs' 18 x 18 translational blocks in sorted order.
+// and at the line contact's Gauss points (contact/line_friction.hpp: one history per Gauss point
+// of the slave segment and master spline, whichever segment pair owns it) and, where asked for,
+// torsional friction at the crossings (contact/torsional_friction.hpp), assembly of the active
+// pairs' 18 x 18 translational blocks in sorted order.
 
 #include "broadphase/candidate_search.hpp"
 #include "contact/friction.hpp"
 #include "contact/interface_law.hpp"
+#include "contact/line_friction.hpp"
 #include "contact/spline_contact.hpp"
 #include "contact/spline_curve.hpp"
 #include "contact/torsional_friction.hpp"
@@ -16,6 +19,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -70,6 +74,17 @@ public:
       double twist_anchor = 0, twist_slip = 0;
       int twist = 0;
     };
+    /// Friction history of a Gauss point of the line contact (line_friction.hpp), keyed by
+    /// definition, the slave's segment id, the Gauss point's index and the master's spline (not
+    /// segment: the point passes from one segment pair to the next with its history): the anchor
+    /// (global parameter on the master spline), the slip accumulated since it closed (m), and
+    /// friction = 1 stuck, 2 slipping.
+    using LineKey = std::array<int, 4>;
+    struct LineWarm {
+      LineKey key;
+      double anchor = 0, slip = 0;
+      int friction = 1;
+    };
     /// A candidate and the scalar part of its last SplineContactResult.
     struct Pair {
       Key key;
@@ -81,6 +96,7 @@ public:
     };
     std::vector<std::vector<Eigen::AlignedBox3d>> search_boxes; ///< per definition, per segment
     std::vector<Warm> committed;                                ///< sorted by key
+    std::vector<LineWarm> line_committed;                       ///< sorted by key
     std::vector<Pair> pairs;                                    ///< the work list, in order
     int candidates_version = 0;
     double dissipated = 0; ///< J, by friction over the completed increments
@@ -142,6 +158,26 @@ private:
     double torque = 0, slip_increment = 0, dissipation = 0, energy = 0, anchor = 0;
   };
   std::vector<Twist> twist_;
+  /// The line contact's friction, for the work items of the last evaluation whose line part has
+  /// Gauss points in contact and whose definition has friction (`line_items_`, ascending): the
+  /// histories they hold fixed (bit i of `with_history`: Gauss point i has one; of `first_touch`:
+  /// it closed in this increment and carries no friction until it converges, as a point contact
+  /// that closes), the slip accumulated before this increment (m), and the kernel's result.
+  struct LineWork {
+    std::uint16_t with_history = 0, first_touch = 0;
+    std::array<contact::LineFrictionHistory, contact::kMaxGaussPoints> history{};
+    std::array<double, contact::kMaxGaussPoints> slip{};
+  };
+  std::vector<int> line_items_;
+  std::vector<LineWork> line_work_;
+  std::vector<contact::LineFrictionResult> line_friction_;
+  std::vector<Snapshot::LineWarm> line_committed_; ///< of the last converged increment, sorted
+  /// Gives each Gauss point in contact of a frictional line contact its history (serial: one
+  /// point per history).
+  void assign_line_histories();
+  /// The all-angle options and contact radii of a work item at this evaluation (the compaction
+  /// grows both radii by half of it).
+  contact::AllAngleOptions all_angle_of(const Definition& d, double ra, double rb) const;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;

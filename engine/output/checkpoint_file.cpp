@@ -108,6 +108,16 @@ void write_contact(hid_t parent, const SplineContactSet::Snapshot& c) {
   h5::write_double_attribute(g, "friction_dissipated", c.dissipated);
   // Torsional friction: written by versions with it.
   write_committed_twist(g, c.committed);
+  // Friction histories of the line contact's Gauss points (key: definition, slave segment, Gauss
+  // point, master spline; values: anchor, slip, state): written by versions with it.
+  keys.clear();
+  values.clear();
+  for (const auto& w : c.line_committed) {
+    keys.insert(keys.end(), w.key.begin(), w.key.end());
+    values.insert(values.end(), {w.anchor, w.slip, static_cast<double>(w.friction)});
+  }
+  write_table(g, "line_committed_keys", keys, 4);
+  write_table(g, "line_committed", values, 3);
   keys.clear();
   values.clear();
   std::vector<int> flags;
@@ -314,6 +324,25 @@ SplineContactSet::Snapshot read_contact(hid_t parent) {
   }
   if (h5::exists(g, "committed_twist"))
     read_committed_twist(g, c.committed, "contact");
+  if (h5::exists(g, "line_committed_keys")) {
+    const std::vector<int> line_keys = read_int_table(g, "line_committed_keys", 4);
+    const long lines = static_cast<long>(line_keys.size() / 4);
+    const std::vector<double> line = read_table(g, "line_committed", lines, 3);
+    for (long i = 0; i < lines; ++i) {
+      const int* k = &line_keys[4 * i];
+      const SplineContactSet::Snapshot::LineWarm w{{k[0], k[1], k[2], k[3]},
+                                                   line[3 * i],
+                                                   line[3 * i + 1],
+                                                   static_cast<int>(line[3 * i + 2])};
+      if (w.friction < 1 || w.friction > 2)
+        throw RestartError(fmt::format(
+            "checkpoint: committed line contact point {} has friction state {}", i, w.friction));
+      if (i > 0 && !(c.line_committed.back().key < w.key))
+        throw RestartError(fmt::format(
+            "checkpoint: committed line contact points are not in ascending order at {}", i));
+      c.line_committed.push_back(w);
+    }
+  }
   keys = read_int_table(g, "pair_keys", 3);
   const long n = static_cast<long>(keys.size() / 3);
   const std::vector<int> flags = read_int_table(g, "pair_flags", 4);
