@@ -68,8 +68,9 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   out.history = history;
   out.residual.setZero();
   out.tangent.setZero();
-  const bool regular_point = contact.active && !contact.degenerate && contact.point_evaluated &&
-                             contact.point_share == 1.0 && contact.line_points == 0;
+  out.share = 1.0;
+  const bool regular_point = contact.point_active && !contact.degenerate &&
+                             contact.point_evaluated && contact.point_share > 0.0;
   if (!regular_point) {
     return;
   }
@@ -97,7 +98,7 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   const Vector3d g_b = control_B * wb.tail<3>();
   const Vector3d g_t = delta_a * g_a + delta_b * g_b;
   const Vector3d& n = contact.normal;
-  const double f_n = contact.force;
+  const double f_n = contact.point_force;
 
   // Stick predictor, slip corrector (Simo & Laursen 1992).
   const double eps_t = law.eps_t();
@@ -134,6 +135,18 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   out.force = f_c - law.c_t() * out.sliding_velocity;
   for (int k = 0; k < 6; ++k) {
     out.residual.segment<3>(3 * k) = -w(k) * out.force;
+  }
+  // The blend of the all-angle contact: everything times the point share s (in its tangent,
+  // r grad s^T); the slip, a distance, is the point's.
+  const double s = contact.point_share;
+  const bool blended = s < 1.0;
+  const Vec18 unblended = out.residual;
+  const Vector3d force = out.force; // before the blend
+  if (blended) {
+    out.share = s;
+    out.force *= s;
+    out.residual *= s;
+    out.dissipation *= s;
   }
   if (!options.compute_tangent) {
     return;
@@ -181,8 +194,12 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   // residual = -kron(w, f): tangent = -kron(wa, f) du_a^T - kron(wb, f) du_b^T - kron(w, df).
   for (int k = 0; k < 6; ++k) {
     out.tangent.block<3, 18>(3 * k, 0).noalias() =
-        -(wa(k) * out.force) * du_a.transpose() - (wb(k) * out.force) * du_b.transpose();
+        -(wa(k) * force) * du_a.transpose() - (wb(k) * force) * du_b.transpose();
     out.tangent.block<3, 18>(3 * k, 0).noalias() -= w(k) * df;
+  }
+  if (blended) {
+    out.tangent *= s;
+    out.tangent.noalias() += unblended * sensitivity->share.transpose();
   }
 }
 

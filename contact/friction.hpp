@@ -60,8 +60,14 @@
 // carry the force from the yarns' surfaces to their centre lines are dropped: the point forces
 // +f at C_A and -f at C_B balance in force but leave the couple g x f (|g| ~ r_A + r_B). The
 // kernel evaluates friction only for a regular point projection: on the degenerate
-// (near-parallel) path and for line contact (line_contact.hpp) it reports no friction
-// (`active` false); those are left for later.
+// (near-parallel) path of the point contact alone it reports no friction (`active` false). In the
+// all-angle contact (line_contact.hpp) it acts on the point part with its share s: the force,
+// the bound mu f_n and the stick stiffness all scale by s, so the stick/slip decision is the
+// point's; the line part has its own friction (line_friction.hpp).
+//
+// Blend: with the all-angle contact's point share s(x) (0 < s <= 1) the result is s times the
+// above, f_n the point part's own force (SplineContactResult::point_force), and the tangent
+// s (d residual/dx) + residual (ds/dx)^T, ds/dx from SplineContactSensitivity::share.
 
 #include "contact/spline_contact.hpp"
 #include "contact/spline_curve.hpp"
@@ -142,6 +148,10 @@ struct SplineFrictionResult {
   double slip_increment = 0.0; ///< |g_t| - mu f_n / eps_t when slipping, else 0, metres
   /// Energy the slip dissipates, the force on the cone times the slip: mu f_n slip_increment, J.
   double dissipation = 0.0;
+  /// The all-angle contact's point share s (line_contact.hpp; 1 for the point contact alone):
+  /// `force`, `residual`, `tangent` and `dissipation` are s times the point's; the stick
+  /// spring's energy is |force|^2 / (2 s eps_t).
+  double share = 1.0;
   /// The history to commit if this iterate is accepted: the anchor (kept in stick, returned
   /// onto the cone in slip) and stuck = !slipping.
   FrictionHistory history;

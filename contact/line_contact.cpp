@@ -299,8 +299,8 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
     out.iterations = 0;
     out.xi_A = start.warm ? start.xi_A : basis_A.mid();
     out.xi_B = start.warm ? start.xi_B : basis_B.mid();
-    out.active = false;
-    out.force = out.potential = out.penetration_rate = 0.0;
+    out.active = out.point_active = false;
+    out.force = out.point_force = out.potential = out.penetration_rate = 0.0;
     out.distance = out.gap = out.penetration = 0.0;
     out.point_A.setZero();
     out.point_B.setZero();
@@ -314,15 +314,16 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
     const double sine2 =
         sine2_of(control_A * basis_A.first_local(ua), control_B * basis_B.first_local(ub));
     out.point_share = point_share(sine2, all_angle);
-    // The sensitivity describes the point contact alone: not a blended or a line contact.
-    if (sensitivity && out.point_share < 1.0)
+    // The sensitivity describes the point part (its share's gradient in `share`), whatever the
+    // line part holds; with no share there is no point part.
+    if (sensitivity && out.point_share == 0.0)
       sensitivity->valid = false;
     if (out.point_share == 0.0) {
       // No share: a jump of this point moves no force.
       if (out.status == ProjectionStatus::Jumped)
         out.status = ProjectionStatus::Converged;
-      out.active = false;
-      out.force = out.potential = 0.0;
+      out.active = out.point_active = false;
+      out.force = out.point_force = out.potential = 0.0;
       out.residual.setZero();
       tangent_written = false;
     } else if (out.point_share < 1.0 && out.active) {
@@ -349,10 +350,14 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
         out.tangent.noalias() += out.residual * s.g.transpose();
         out.tangent += u * s.h;
         out.residual = s.v * out.residual + u * s.g;
+        if (sensitivity && sensitivity->valid)
+          sensitivity->share = s.g;
       } else {
         const JetT<0> s =
             point_share_jet<0>(control_A, basis_A, ua, control_B, basis_B, ub, all_angle);
         out.residual = s.v * out.residual + u * s.g;
+        if (sensitivity && sensitivity->valid)
+          sensitivity->share = s.g;
       }
       out.potential = out.point_share * u;
       out.force *= out.point_share;
@@ -372,8 +377,6 @@ void all_angle_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, d
   out.line_points = line.points;
   out.line_mask = line.mask;
   out.line_u = line.u_B;
-  if (sensitivity && line.points > 0)
-    sensitivity->valid = false;
   // A Gauss point without a projection (or a normal) is a hole in the line contact: as for the
   // point contact, the stage vetoes the step if the pair is or was in contact.
   if (line.failed > 0)

@@ -101,10 +101,11 @@ void line_contact(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
 /// contact, the smallest gap of the owned line points); xi and iterations of the point contact
 /// (the start's xi when it was not evaluated); status the point contact's, or Converged where
 /// it is not (OutOfRange, not evaluated) but the line part owns Gauss points.
-/// `sensitivity` (optional) receives the point contact's (spline_contact); it is valid only where
-/// the result is the point contact's alone (s = 1, no line point). `rates` (optional) feeds the
-/// law's normal damping to the point part (the blend scales the damped force by s; the line
-/// part is not damped). Never allocates.
+/// `sensitivity` (optional) receives the point part's (spline_contact), valid where the point part
+/// is active with a share s > 0 (with or without line points), with the share's gradient in
+/// `share`; `point_active` and `point_force` hold the point part's state before the blend. `rates`
+/// (optional) feeds the law's normal damping to the point part (the blend scales the damped force
+/// by s; the line part is not damped). Never allocates.
 void all_angle_contact(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
                        double radius_A, const Eigen::Matrix3d& control_B,
                        const SegmentBasis& basis_B, double radius_B, const ProjectionStart& start,

@@ -549,6 +549,7 @@ void write_sensitivity(const Local& e, const SegmentBasis& basis_A, const Segmen
     const Vec18 hess_psi_v = hessian_psi_times(w, velocity, ha, hb, da, db, grad_psi, dist);
     out.force -= fv * (hess_psi_v + vpd * grad_psi);
   }
+  out.share.setZero();
   out.valid = true;
 }
 
@@ -568,8 +569,10 @@ bool fill_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
   out.xi_A = lp.result.xi_A;
   out.xi_B = lp.result.xi_B;
   out.active = false;
+  out.point_active = false;
   out.penetration_rate = 0.0;
   out.force = 0.0;
+  out.point_force = 0.0;
   out.potential = 0.0;
   out.residual.setZero();
 
@@ -618,8 +621,10 @@ bool fill_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
   }
   const double pdot = out.penetration_rate;
   out.force = law.force(p, pdot);
+  out.point_force = out.force;
   out.potential = law.potential(p);
   out.active = true;
+  out.point_active = true;
   out.residual = -out.force * grad_psi;
   if (sensitivity != nullptr && !out.degenerate) {
     write_sensitivity(e, basis_A, basis_B, w, grad_psi, velocity, dist, law.stiffness(p, pdot),

@@ -110,6 +110,11 @@ struct SplineContactResult {
   bool point_evaluated = true;
   double point_share = 1.0;
   int line_points = 0;
+  /// The point contact's own state before the blend: whether it is active (p > 0 with a share
+  /// s > 0) and its normal force f (N; s f is what `force` holds of it). For the point contact
+  /// alone: `active` and `force`. The point friction (friction.hpp) acts on these.
+  bool point_active = false;
+  double point_force = 0.0;
   /// The line part's Gauss points in contact (bit i: Gauss point i of A's segment, with a line
   /// share above 0) and the local parameters on B's segment of their projections (valid where
   /// the bit is set): what the line contact's friction (line_friction.hpp) starts from.
@@ -136,6 +141,9 @@ struct SplineContactSensitivity {
   /// Gradient of the normal force magnitude, df/dx = -f_p d|g|/dx + f_pdot d(dp/dt)/dx, N/m;
   /// the second term only with PairRates and a damping law.
   Eigen::Matrix<double, 18, 1> force = Eigen::Matrix<double, 18, 1>::Zero();
+  /// Gradient of the point share s of the all-angle contact (line_contact.hpp), 1/m: non-zero
+  /// only in the blend (0 < s < 1); zero for the point contact alone.
+  Eigen::Matrix<double, 18, 1> share = Eigen::Matrix<double, 18, 1>::Zero();
 };
 
 /// Solves the LCP (eq. 11) between segment `basis_A` of curve A (control points `control_A`,

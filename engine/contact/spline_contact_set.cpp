@@ -764,9 +764,10 @@ void SplineContactSet::summarise() {
       summary_.active_set = fold_active_pair(summary_.active_set, -1 - work_[w].definition,
                                              work_[w].pair.first, work_[w].pair.second);
     summary_.tangential_force += f.force.norm();
-    // The tangential spring's elastic energy, |f|^2 / (2 eps_t), is stored with the normal one.
-    summary_.potential +=
-        f.force.squaredNorm() / (2.0 * definitions_[work_[w].definition]->friction->eps_t());
+    // The tangential spring's elastic energy, |f|^2 / (2 s eps_t) (s the all-angle contact's
+    // point share), is stored with the normal one.
+    summary_.potential += f.force.squaredNorm() /
+                          (2.0 * f.share * definitions_[work_[w].definition]->friction->eps_t());
     summary_.dissipation += f.dissipation;
     const Twist& t = twist_[w];
     if (!t.active)

@@ -313,5 +313,159 @@ TEST(LineFriction, OnlyGaussPointsInContactWithAHistoryCarryFriction) {
   EXPECT_EQ(f.mask, 0);
 }
 
+/// Point friction histories per segment pair (A's i, B's j) and whether the pair has one.
+struct PointHistories {
+  std::array<std::array<FrictionHistory, kSegments>, kSegments> history{};
+  std::array<std::array<bool, kSegments>, kSegments> has{};
+};
+
+/// The point part's friction (friction.hpp with the all-angle contact's share) plus the line
+/// part's, over all segment pairs, on fixed histories: residual, tangent, and the point parts'
+/// smallest share.
+struct Blend {
+  Vec residual = Vec::Zero(6 * kPoints);
+  Mat tangent = Mat::Zero(6 * kPoints, 6 * kPoints);
+  int point_frictions = 0, line_points = 0;
+  double min_share = 1.0;
+  Vector3d on_a = Vector3d::Zero();
+};
+
+Blend blend(const Curves& c, const AllAngleOptions& opt, const CoulombFriction& friction,
+            const PointHistories& ph, const Histories& lh, PointHistories* touched = nullptr) {
+  static const LinearPenalty law(kEps);
+  Blend t;
+  SplineContactResult r;
+  SplineContactSensitivity sens;
+  SplineFrictionResult pf;
+  LineFrictionResult lf;
+  for (int i = 0; i < kSegments; ++i)
+    for (int j = 0; j < kSegments; ++j) {
+      const Matrix3d A = curve().control_points(c.a, i), B = curve().control_points(c.b, j);
+      const SegmentBasis &sa = curve().segment(i), &sb = curve().segment(j);
+      all_angle_contact(A, sa, kRadius, B, sb, kRadius, {}, law, opt, r, {}, &sens);
+      EXPECT_NE(r.status, ProjectionStatus::NotConverged) << i << " " << j;
+      Eigen::Matrix<double, 18, 1> res = Eigen::Matrix<double, 18, 1>::Zero();
+      Eigen::Matrix<double, 18, 18> tan = Eigen::Matrix<double, 18, 18>::Zero();
+      if (sens.valid) {
+        if (touched != nullptr) {
+          touched->history[i][j] = first_touch(r);
+          touched->has[i][j] = true;
+        }
+        if (ph.has[i][j]) {
+          spline_friction(A, sa, B, sb, r, &sens, ph.history[i][j], friction, pf);
+          EXPECT_TRUE(pf.active);
+          ++t.point_frictions;
+          t.min_share = std::min(t.min_share, pf.share);
+          t.on_a += pf.force;
+          res += pf.residual;
+          tan += pf.tangent;
+        }
+      }
+      line_friction(A, sa, kRadius, B, sb, kRadius, law, opt, r, 0xffff, lh[i], friction, lf);
+      for (int k = 0; k < kMaxGaussPoints; ++k)
+        if (lf.mask & (1u << k)) {
+          ++t.line_points;
+          t.on_a += lf.points[k].force;
+        }
+      res += lf.residual;
+      tan += lf.tangent;
+      const int dofs[6] = {i, i + 1, i + 2, kPoints + j, kPoints + j + 1, kPoints + j + 2};
+      for (int p = 0; p < 6; ++p) {
+        t.residual.segment<3>(3 * dofs[p]) += res.segment<3>(3 * p);
+        for (int q = 0; q < 6; ++q)
+          t.tangent.block<3, 3>(3 * dofs[p], 3 * dofs[q]) += tan.block<3, 3>(3 * p, 3 * q);
+      }
+    }
+  return t;
+}
+
+TEST(LineFriction, BlendedPointFrictionHasItsShareAndAConsistentTangent) {
+  // Crossing angles in the blend (10 to 20 degrees): the point part's friction carries its share
+  // s (0 < s < 1) and the line part's Gauss points theirs; the sum's tangent against central
+  // differences, in stick and in slip.
+  const AllAngleOptions opt = options();
+  const CoulombFriction friction(0.4, 0.3, kEpsT);
+  static const LinearPenalty law(kEps);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  double worst = 0, smallest_share = 1;
+  for (const double angle : {0.2, 0.25, 0.3, 0.33})
+    for (const bool slipping : {false, true}) {
+      const Curves c =
+          make_curves(angle, 2 * kRadius - 1e-5, (u(rng) - 0.5) * kH, 0.02 * kRadius, rng);
+      // Point histories: anchors `offset` segments from the contact points on both curves.
+      PointHistories now{}, ph{};
+      blend(c, opt, friction, ph, {}, &now);
+      const double offset = (slipping ? 0.3 : 1e-5) * curve().segment(0).length();
+      ph = now;
+      for (auto& row : ph.history)
+        for (FrictionHistory& h : row) {
+          h.xi_A -= offset;
+          h.xi_B += offset;
+        }
+      const Histories lh = offset_histories(c, opt, slipping ? 0.3 : 1e-5, true);
+      const Blend t0 = blend(c, opt, friction, ph, lh);
+      ASSERT_GT(t0.point_frictions, 0) << angle;
+      const double step = 1e-10;
+      Mat fd(6 * kPoints, 6 * kPoints);
+      for (int i = 0; i < 6 * kPoints; ++i) {
+        Curves p = c, m = c;
+        dof(p, i) += step;
+        dof(m, i) -= step;
+        fd.col(i) =
+            (blend(p, opt, friction, ph, lh).residual - blend(m, opt, friction, ph, lh).residual) /
+            (2 * step);
+      }
+      const double e =
+          (fd - t0.tangent).lpNorm<Eigen::Infinity>() / t0.tangent.lpNorm<Eigen::Infinity>();
+      std::printf("angle %.2f, %s: %d point frictions (smallest share %.3f), %d line points, "
+                  "tangent %.1e\n",
+                  angle, slipping ? "slip" : "stick", t0.point_frictions, t0.min_share,
+                  t0.line_points, e);
+      EXPECT_LT(e, 1e-6) << angle;
+      worst = std::max(worst, e);
+      smallest_share = std::min(smallest_share, t0.min_share);
+    }
+  EXPECT_LT(smallest_share, 0.9); // the blend was exercised
+  std::printf("worst: %.1e\n", worst);
+}
+
+TEST(LineFriction, BlendedPointFrictionIsTheShareOfThePointFriction) {
+  // The same pair with a share s < 1: force, dissipation and residual are s times those of the
+  // point contact alone (line_contact = false) at the same positions and history.
+  const AllAngleOptions opt = options();
+  const CoulombFriction friction(0.3, 0.3, kEpsT);
+  static const LinearPenalty law(kEps);
+  std::mt19937 rng(17);
+  const Curves c = make_curves(0.28, 2 * kRadius - 1e-5, 0.1 * kH, 0.0, rng);
+  const int i = 1, j = 1;
+  const Matrix3d A = curve().control_points(c.a, i), B = curve().control_points(c.b, j);
+  const SegmentBasis &sa = curve().segment(i), &sb = curve().segment(j);
+  SplineContactResult blended, alone;
+  SplineContactSensitivity sb_sens, alone_sens;
+  all_angle_contact(A, sa, kRadius, B, sb, kRadius, {}, law, opt, blended, {}, &sb_sens);
+  spline_contact(A, sa, kRadius, B, sb, kRadius, {}, law, alone, {}, nullptr, &alone_sens);
+  ASSERT_TRUE(sb_sens.valid);
+  ASSERT_TRUE(alone_sens.valid);
+  const double s = blended.point_share;
+  ASSERT_GT(s, 0.05);
+  ASSERT_LT(s, 0.95);
+  EXPECT_NEAR(blended.point_force, alone.force, 1e-12 * alone.force);
+  for (const double offset : {1e-5, 0.3}) {
+    FrictionHistory h = first_touch(alone);
+    h.xi_A -= offset * sa.length();
+    h.xi_B += offset * sb.length();
+    SplineFrictionResult fb, fa;
+    spline_friction(A, sa, B, sb, blended, &sb_sens, h, friction, fb);
+    spline_friction(A, sa, B, sb, alone, &alone_sens, h, friction, fa);
+    EXPECT_EQ(fb.slipping, fa.slipping);
+    EXPECT_EQ(fb.share, s);
+    EXPECT_NEAR((fb.force - s * fa.force).norm(), 0.0, 1e-12 * fa.force.norm());
+    EXPECT_NEAR((fb.residual - s * fa.residual).norm(), 0.0, 1e-12 * fa.residual.norm());
+    EXPECT_NEAR(fb.dissipation, s * fa.dissipation, 1e-12 * fa.force.norm());
+    EXPECT_EQ(fb.slip_increment, fa.slip_increment);
+  }
+}
+
 } // namespace
 } // namespace yarnsim::contact
