@@ -30,9 +30,11 @@ JetT<H> angle_jet(const Matrix3d& control_A, const SegmentBasis& basis_A, double
   return atan2_jet(triple(g, a, b), sqrt(dot(g, g)) * dot(a, b));
 }
 
+/// An active point contact on the regular path (in the all-angle contact: its point part, with a
+/// share s > 0).
 bool regular_point(const SplineContactResult& contact) {
-  return contact.active && !contact.degenerate && contact.point_evaluated &&
-         contact.point_share == 1.0 && contact.line_points == 0;
+  return contact.point_active && !contact.degenerate && contact.point_evaluated &&
+         contact.point_share > 0.0;
 }
 
 } // namespace
@@ -143,11 +145,24 @@ void torsional_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   const double ua = basis_A.local(contact.xi_A);
   const double ub = basis_B.local(contact.xi_B);
   if (options.compute_tangent)
-    evaluate(angle_jet<18>(control_A, basis_A, ua, control_B, basis_B, ub), contact.force,
+    evaluate(angle_jet<18>(control_A, basis_A, ua, control_B, basis_B, ub), contact.point_force,
              sensitivity, history, law, out);
   else
-    evaluate(angle_jet<0>(control_A, basis_A, ua, control_B, basis_B, ub), contact.force,
+    evaluate(angle_jet<0>(control_A, basis_A, ua, control_B, basis_B, ub), contact.point_force,
              sensitivity, history, law, out);
+  // The all-angle contact's blend: s times the point's torque (bound, spring and tangent
+  // included, as for the pointwise friction: friction.hpp); the twist slip is the point's.
+  const double s = contact.point_share;
+  if (s < 1.0) {
+    if (options.compute_tangent) {
+      out.tangent *= s;
+      out.tangent.noalias() += out.residual * sensitivity->share.transpose();
+    }
+    out.residual *= s;
+    out.torque *= s;
+    out.dissipation *= s;
+    out.energy *= s;
+  }
 }
 
 } // namespace yarnsim::contact

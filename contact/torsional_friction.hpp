@@ -36,9 +36,13 @@
 // (eps_t the tangential penalty, N/m), so that a twist stiffens like a ring of the pointwise
 // law's springs at radius rho and slips at the twist where such a ring slips.
 //
+// In the all-angle contact's blend (line_contact.hpp) the torque is the point part's share s of
+// the above (bound, spring and dissipation; the tangent gains r (ds/dx)^T), f_n the point part's
+// own force, as for the pointwise friction (friction.hpp).
+//
 // Limitations: as for pointwise friction, only regular point projections (not the degenerate
-// path of nearly parallel yarns, not the line contact); a crossing that turns through 180 degrees
-// within one increment would wrap.
+// path of nearly parallel yarns; the line contact's yarns side by side have no crossing angle); a
+// crossing that turns through 180 degrees within one increment would wrap.
 
 #include "contact/friction.hpp"
 #include "contact/spline_contact.hpp"

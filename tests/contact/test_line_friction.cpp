@@ -5,6 +5,7 @@
 // in any segment of the master and anchors in the neighbouring ones; the return mapping onto the
 // cone; a rigid rotation of a stuck pair rotates its force.
 #include "contact/line_friction.hpp"
+#include "contact/torsional_friction.hpp"
 
 #include <gtest/gtest.h>
 
@@ -319,13 +320,13 @@ struct PointHistories {
   std::array<std::array<bool, kSegments>, kSegments> has{};
 };
 
-/// The point part's friction (friction.hpp with the all-angle contact's share) plus the line
-/// part's, over all segment pairs, on fixed histories: residual, tangent, and the point parts'
-/// smallest share.
+/// The point part's friction (friction.hpp with the all-angle contact's share) and its torsional
+/// friction (torsional_friction.hpp) plus the line part's, over all segment pairs, on fixed
+/// histories: residual, tangent, and the point parts' smallest share.
 struct Blend {
   Vec residual = Vec::Zero(6 * kPoints);
   Mat tangent = Mat::Zero(6 * kPoints, 6 * kPoints);
-  int point_frictions = 0, line_points = 0;
+  int point_frictions = 0, line_points = 0, twist_slipping = 0;
   double min_share = 1.0;
   Vector3d on_a = Vector3d::Zero();
 };
@@ -349,6 +350,7 @@ Blend blend(const Curves& c, const AllAngleOptions& opt, const CoulombFriction& 
       if (sens.valid) {
         if (touched != nullptr) {
           touched->history[i][j] = first_touch(r);
+          touched->history[i][j].twist = crossing_angle(A, sa, B, sb, r);
           touched->has[i][j] = true;
         }
         if (ph.has[i][j]) {
@@ -359,6 +361,16 @@ Blend blend(const Curves& c, const AllAngleOptions& opt, const CoulombFriction& 
           t.on_a += pf.force;
           res += pf.residual;
           tan += pf.tangent;
+          // Torsional friction at the crossing (rho from yarns 4 r wide).
+          TorsionalFrictionResult tf;
+          torsional_friction(A, sa, B, sb, r, &sens, ph.history[i][j],
+                             torsional_law(friction.mu_s(), friction.mu_k(), friction.eps_t(), 0, 0,
+                                           4 * kRadius, 4 * kRadius),
+                             tf);
+          EXPECT_TRUE(tf.active);
+          t.twist_slipping += tf.slipping;
+          res += tf.residual;
+          tan += tf.tangent;
         }
       }
       line_friction(A, sa, kRadius, B, sb, kRadius, law, opt, r, 0xffff, lh[i], friction, lf);
@@ -380,9 +392,9 @@ Blend blend(const Curves& c, const AllAngleOptions& opt, const CoulombFriction& 
 }
 
 TEST(LineFriction, BlendedPointFrictionHasItsShareAndAConsistentTangent) {
-  // Crossing angles in the blend (10 to 20 degrees): the point part's friction carries its share
-  // s (0 < s < 1) and the line part's Gauss points theirs; the sum's tangent against central
-  // differences, in stick and in slip.
+  // Crossing angles in the blend (10 to 20 degrees): the point part's friction and torsional
+  // friction carry its share s (0 < s < 1) and the line part's Gauss points theirs; the sum's
+  // tangent against central differences, in stick and in slip.
   const AllAngleOptions opt = options();
   const CoulombFriction friction(0.4, 0.3, kEpsT);
   static const LinearPenalty law(kEps);
@@ -402,10 +414,12 @@ TEST(LineFriction, BlendedPointFrictionHasItsShareAndAConsistentTangent) {
         for (FrictionHistory& h : row) {
           h.xi_A -= offset;
           h.xi_B += offset;
+          h.twist += slipping ? 0.3 : 1e-7; // rad
         }
       const Histories lh = offset_histories(c, opt, slipping ? 0.3 : 1e-5, true);
       const Blend t0 = blend(c, opt, friction, ph, lh);
       ASSERT_GT(t0.point_frictions, 0) << angle;
+      EXPECT_EQ(t0.twist_slipping, slipping ? t0.point_frictions : 0) << angle;
       const double step = 1e-10;
       Mat fd(6 * kPoints, 6 * kPoints);
       for (int i = 0; i < 6 * kPoints; ++i) {
