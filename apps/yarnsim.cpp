@@ -70,7 +70,8 @@ int main(int argc, char** argv) {
   CLI::App* run = app.add_subcommand("run", "Run a model deck (TOML); see docs/input.md");
   run->add_option("deck", deck, "Model deck (.toml)")->required();
   run->add_option("--output,-o", output,
-                  "Output folder (default: results/<deck name> in the current folder)");
+                  "Output folder (default: results/<deck name> in the current folder; with "
+                  "--restart, the folder it restarts from)");
   run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   run->add_option("--linear-solver", solver,
                   "Linear solver: auto (default: lu with applied moments or friction, ldlt-gmres "
@@ -195,9 +196,11 @@ int main(int argc, char** argv) {
   }
 
   const std::filesystem::path deck_path(deck);
-  std::filesystem::path out_dir = output.empty()
-                                      ? std::filesystem::path("results") / deck_path.stem()
-                                      : std::filesystem::path(output);
+  // A restart goes on in the folder it restarts from unless --output names another.
+  std::filesystem::path out_dir = !output.empty() ? std::filesystem::path(output)
+                                  : !restart.empty()
+                                      ? std::filesystem::path(restart)
+                                      : std::filesystem::path("results") / deck_path.stem();
   try {
     const yarnsim::Model model = yarnsim::read_deck(deck_path);
     yarnsim::RunOptions options;
