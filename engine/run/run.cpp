@@ -306,6 +306,23 @@ public:
                        geometry);
   }
 
+  /// The frame angle where parallel yarns first touched, from the rows kept: a restart reports
+  /// the locking the run before it found.
+  void resume(const std::filesystem::path& file, long rows) override {
+    if (!parallel_)
+      return;
+    const output::CsvTable table = output::read_csv_table(file, rows);
+    for (const char* name : {"frame_angle [deg]", "parallel_contacts [-]"})
+      if (table.column(name) < 0)
+        throw std::runtime_error(fmt::format(
+            "{} has no column '{}' to resume the picture frame's curves", file.string(), name));
+    const std::vector<double> angle = table.numbers("frame_angle [deg]");
+    const std::vector<double> parallel = table.numbers("parallel_contacts [-]");
+    for (std::size_t k = 0; k < angle.size() && !locked_at_; ++k)
+      if (parallel[k] > 0)
+        locked_at_ = angle[k];
+  }
+
 private:
   const Model& model_;
   const PictureFrameTest& test_;

@@ -3,7 +3,8 @@
 # through: every dataset and attribute under /steps and /mesh of results.h5 (h5diff, exact) and
 # every CSV byte for byte. Cases: an implicit contact case (crossing beams, static), a short
 # biaxial fabric (dynamic Newmark, contact, curves.csv) with spline and with surface contact, a
-# bias extension (its curves.csv marches over the rows so far), the explicit flying beam (stopped by --stop-after and by SIGINT). Restarts go into a new folder and into the stopped run's own
+# picture frame past the locking of its yarns (the locking note carries over), a bias extension
+# (its curves.csv marches over the rows so far), the explicit flying beam (stopped by --stop-after and by SIGINT). Restarts go into a new folder and into the stopped run's own
 # folder. A restart refuses another deck and a folder without a checkpoint (exit 2).
 # Usage: restart.sh YARNSIM REPO WORKDIR
 set -u
@@ -79,12 +80,25 @@ sed -e 's/^n_warp = .*/n_warp = 3/; s/^n_weft = .*/n_weft = 3/' \
 grep -q '^type = "surface"' surface.toml || { echo "FAIL surface: the deck has no surface contact"; fail=1; }
 restart_case surface surface.toml 4
 
-# 4. The explicit flying beam over 4 s (2000 increments, output every 50): stopped inside the
+# 4. A 3 x 3 picture frame of yarns so wide that neighbouring ones lock at 15.9 degrees (row 119),
+# stopped after increment 140: the restart reports the locking the first part found.
+sed -e 's/^n_warp = .*/n_warp = 3/; s/^n_weft = .*/n_weft = 3/' \
+  -e 's/^length_warp = .*/length_warp = 13.63635e-3/; s/^length_weft = .*/length_weft = 13.63635e-3/' \
+  -e 's/^a = .*/a = 2.2e-3/; s/^max_angle = .*/max_angle = 20.0/' \
+  -e 's/^elements_per_spacing = .*/elements_per_spacing = 2/' \
+  "$repo/examples/picture-frame.toml" > frame.toml
+restart_case frame frame.toml 140
+for log in frame-straight.log frame-restart.log frame-inplace.log; do
+  grep -q "neighbouring parallel yarns first touched at a frame angle of 15.90 degrees" "$log" ||
+    { echo "FAIL frame: $log does not report the locking at 15.90 degrees"; cat "$log"; fail=1; }
+done
+
+# 5. The explicit flying beam over 4 s (2000 increments, output every 50): stopped inside the
 # explicit step, where the integrator's half-step velocities and momenta carry over.
 sed -e 's/^end_time = .*/end_time = 4.0/' "$repo/examples/flying-beam-explicit.toml" > flying.toml
 restart_case explicit flying.toml 900
 
-# 5. SIGINT at some point of the explicit run made 50 times longer (75000 increments, output
+# 6. SIGINT at some point of the explicit run made 50 times longer (75000 increments, output
 # every 250), then a restart.
 sed -e 's/^end_time = .*/end_time = 150.0/; s/^output_every = .*/output_every = 250/' \
   "$repo/examples/flying-beam-explicit.toml" > long.toml
@@ -111,7 +125,7 @@ else
   same_results "explicit, SIGINT after $part steps" straight-long restarted-long
 fi
 
-# 6. A bias extension (a 16 x 42 mm specimen pulled to an ideal 5 degrees, 36 dynamic
+# 7. A bias extension (a 16 x 42 mm specimen pulled to an ideal 5 degrees, 36 dynamic
 # increments; frictionless and without compaction it comes apart further on): its curves.csv
 # carries the benchmark's energy-method force, marched over the rows so far, which the restart
 # reads back from the rows the checkpoint kept.
@@ -141,7 +155,7 @@ restart_case bias bias.toml 12
 awk -F, 'NR > 2 && $7 != "nan" && $7 != 0 { found = 1 } END { exit !found }' straight-bias/curves.csv ||
   { echo "FAIL bias: no energy-method force in curves.csv"; fail=1; }
 
-# 7. Refusals: another deck, a folder without a checkpoint.
+# 8. Refusals: another deck, a folder without a checkpoint.
 sed -e 's/^penalty = .*/penalty = 2e5/' crossing.toml > other.toml
 expect other-deck 2 run other.toml --restart part-crossing -o other -q
 grep -q "another deck" other-deck.log || { echo "FAIL other-deck: message lacks 'another deck'"; cat other-deck.log; fail=1; }
