@@ -35,6 +35,33 @@ double LinearPenalty::potential(double p) const {
   return p > 0.0 ? 0.5 * eps_ * p * p : 0.0;
 }
 
+RegularisedPenalty::RegularisedPenalty(double eps, double g0) : eps_(eps), g0_(g0) {
+  require(std::isfinite(eps) && eps > 0.0, "a finite penalty eps > 0 (N/m)", eps);
+  require(std::isfinite(g0) && g0 > 0.0, "a finite regularisation gap g0 > 0 (m)", g0);
+}
+
+double RegularisedPenalty::force(double p, double /*rate*/) const {
+  if (p >= 0.0)
+    return eps_ * (p + 0.5 * g0_);
+  const double q = p + g0_;
+  return q > 0.0 ? eps_ * q * q / (2.0 * g0_) : 0.0;
+}
+
+double RegularisedPenalty::stiffness(double p, double /*rate*/) const {
+  if (p >= 0.0)
+    return eps_;
+  const double q = p + g0_;
+  return q > 0.0 ? eps_ * q / g0_ : 0.0;
+}
+
+double RegularisedPenalty::potential(double p) const {
+  // U = eps q^3 / (6 g0) up to p = 0 (q = p + g0), then eps g0^2 / 6 + eps (g0 p / 2 + p^2 / 2).
+  if (p >= 0.0)
+    return eps_ * (g0_ * g0_ / 6.0 + 0.5 * p * (g0_ + p));
+  const double q = p + g0_;
+  return q > 0.0 ? eps_ * q * q * q / (6.0 * g0_) : 0.0;
+}
+
 PowerLaw::PowerLaw(double eps, double exponent) : eps_(eps), n_(exponent) {
   require(std::isfinite(eps) && eps > 0.0, "a finite coefficient eps > 0 (N/m^n)", eps);
   require(std::isfinite(exponent) && exponent >= 1.0,
@@ -62,7 +89,7 @@ DampedLaw::DampedLaw(std::shared_ptr<const InterfaceLaw> elastic, double c)
 }
 
 double DampedLaw::force(double p, double rate) const {
-  if (p <= 0.0) {
+  if (p <= -onset()) {
     return 0.0;
   }
   const double f = elastic_->force(p, 0.0) + c_ * rate;
@@ -70,14 +97,14 @@ double DampedLaw::force(double p, double rate) const {
 }
 
 double DampedLaw::stiffness(double p, double rate) const {
-  if (p <= 0.0 || elastic_->force(p, 0.0) + c_ * rate <= 0.0) {
+  if (p <= -onset() || elastic_->force(p, 0.0) + c_ * rate <= 0.0) {
     return 0.0;
   }
   return elastic_->stiffness(p, 0.0);
 }
 
 double DampedLaw::damping(double p, double rate) const {
-  if (p <= 0.0 || elastic_->force(p, 0.0) + c_ * rate <= 0.0) {
+  if (p <= -onset() || elastic_->force(p, 0.0) + c_ * rate <= 0.0) {
     return 0.0;
   }
   return c_;

@@ -211,7 +211,7 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
   const double reach = radius_A + radius_B;
   const double hi2 = all_angle.point_sine * all_angle.point_sine;
   const GaussRule rule = gauss_rule(all_angle.gauss_points);
-  double deepest = 0.0;
+  double deepest = -std::numeric_limits<double>::infinity();
   for (int i = 0; i < rule.n; ++i) {
     const double ua = rule.u[i];
     const Vector3d a = control_A * basis_A.values_local(ua);
@@ -237,8 +237,8 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
     }
     ++out.owned;
     out.min_gap = std::min(out.min_gap, dist - reach);
-    if (!(dist < reach) || !(sine2_of(ta, tb) < hi2))
-      continue; // no penetration, or the point contact's alone: nothing to add
+    if (!(dist < reach + law.onset()) || !(sine2_of(ta, tb) < hi2))
+      continue; // apart (the law acts from a gap of onset() on), or the point contact's alone
     double force = 0.0;
     if (options.compute_tangent) {
       const Jet e = gauss_point_term<18>(control_A, basis_A, ua, rule.w[i], control_B, basis_B,

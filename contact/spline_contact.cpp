@@ -596,7 +596,7 @@ bool fill_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
   const double dist = out.distance;
   out.normal = e.g / dist;
   const double p = out.penetration;
-  if (!(p > 0.0)) {
+  if (!(p > -law.onset())) { // apart (the law acts from a gap of onset() on)
     return false;
   }
 

@@ -1093,7 +1093,7 @@ bool fill_contact(const Cylinder& A, const Cylinder& B, const SurfaceProjectionS
   const bool owned =
       out.status == ProjectionStatus::Converged || out.status == ProjectionStatus::Jumped;
   const double p = out.penetration;
-  if (!owned || !(p > 0.0)) {
+  if (!owned || !(p > -law.onset())) { // apart (the law acts from a gap of onset() on)
     return false;
   }
 

@@ -48,7 +48,9 @@ struct SplineContactSet::Definition {
 
 std::shared_ptr<const contact::InterfaceLaw> make_interface_law(const InterfaceLawParameters& p) {
   std::shared_ptr<const contact::InterfaceLaw> law;
-  if (p.exponent == 1.0)
+  if (p.exponent == 1.0 && p.regularisation > 0)
+    law = std::make_shared<contact::RegularisedPenalty>(p.penalty, p.regularisation);
+  else if (p.exponent == 1.0)
     law = std::make_shared<contact::LinearPenalty>(p.penalty);
   else
     law = std::make_shared<contact::PowerLaw>(p.penalty, p.exponent);

@@ -202,6 +202,7 @@ constexpr KeySpec kContactKeys[] = {
     {"law", Type::String},
     {"penalty", Type::Number, kRequired, kPositive},
     {"exponent", Type::Number, kOptional, kAtLeastOne},
+    {"regularisation", Type::Number, kOptional, kPositive},
     {"damping", Type::Number, kOptional, kNonNegative},
     {"self_contact", Type::Boolean},
     {"margin", Type::Number, kOptional, kNonNegative},
@@ -1481,10 +1482,12 @@ private:
     }
   }
 
-  /// The normal interface law (formulation.md §4): linear penalty or power law.
+  /// The normal interface law (formulation.md §4): linear penalty (optionally regularised) or
+  /// power law.
   void contact_law(const CheckedTable& t, InterfaceLawParameters& law) const {
     law.penalty = t.number("penalty").value_or(0);
     law.damping = t.number("damping").value_or(0);
+    law.regularisation = t.number("regularisation").value_or(0);
     const std::optional<std::string> name =
         t.present("law") ? t.string("law") : std::optional<std::string>("linear");
     if (name == "linear") {
@@ -1496,6 +1499,9 @@ private:
       if (!t.present("exponent"))
         t.missing("exponent", "a number >= 1, for law = \"power\"");
       law.exponent = t.number("exponent").value_or(1);
+      if (t.present("regularisation"))
+        t.error("regularisation", "'regularisation' applies only to law = \"linear\"; this "
+                                  "contact's law is \"power\"");
     } else if (name) {
       static constexpr std::string_view kLaws[] = {"linear", "power"};
       const std::string_view suggestion = closest(*name, kLaws);

@@ -157,6 +157,9 @@ struct InterfaceLawParameters {
   double penalty = 0;  ///< N/m (N/m^exponent for the power law)
   double exponent = 1; ///< 1: linear penalty
   double damping = 0;  ///< N s/m
+  /// m; > 0: the linear penalty's quadratic regularisation over this gap before contact
+  /// (contact::RegularisedPenalty); 0: none.
+  double regularisation = 0;
 };
 
 /// Coulomb friction of a contact (contact/friction.hpp): a tangential penalty (elastic stick)

@@ -18,6 +18,9 @@ const char* step_name(StepType t) {
 }
 
 std::string law_text(const InterfaceLawParameters& law) {
+  if (law.exponent == 1 && law.regularisation > 0)
+    return fmt::format("linear, penalty {:g} N/m, regularised over {:g} m", law.penalty,
+                       law.regularisation);
   return law.exponent == 1 ? fmt::format("linear, penalty {:g} N/m", law.penalty)
                            : fmt::format("power, penalty {:g} N/m^{:g}", law.penalty, law.exponent);
 }

@@ -207,6 +207,7 @@ constexpr KeySpec kContactKeys[] = {
     {"law", Type::String},
     {"penalty", Type::Number, kOptional, kPositive},
     {"exponent", Type::Number, kOptional, kAtLeastOne},
+    {"regularisation", Type::Number, kOptional, kPositive},
     {"damping", Type::Number, kOptional, kNonNegative},
     {"friction", Type::Number, kOptional, kNonNegative},
     {"static_friction", Type::Number, kOptional, kNonNegative},
@@ -760,6 +761,9 @@ private:
       t.error("exponent", "'exponent' applies only to law = \"power\"");
     if (law == "power" && !t.present("exponent"))
       t.missing("exponent", "a number >= 1, for law = \"power\"");
+    if (law == "power" && t.present("regularisation"))
+      t.error("regularisation", "'regularisation' applies only to law = \"linear\"");
+    out.regularisation = law == "linear" ? t.number("regularisation").value_or(0) : 0.0;
     out.penalty = t.number("penalty").value_or(out.penalty);
     out.exponent = law == "power" ? t.number("exponent").value_or(1) : 1.0;
     out.damping = t.number("damping").value_or(0);

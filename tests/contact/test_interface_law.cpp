@@ -37,6 +37,37 @@ TEST(InterfaceLaw, LinearPenaltyIsEpsTimesPenetration) {
   }
 }
 
+TEST(InterfaceLaw, RegularisedPenaltyIsC1FromItsOnsetAndLinearInContact) {
+  // Meier, Popp and Wall's regularised penalty: eps (p + g0)^2 / (2 g0) over -g0 < p < 0, then
+  // eps (p + g0 / 2).
+  const double eps = 1.5e6, g0 = 2e-6;
+  const RegularisedPenalty law(eps, g0);
+  EXPECT_EQ(law.onset(), g0);
+  EXPECT_EQ(law.force(-g0), 0.0);
+  EXPECT_EQ(law.force(-2 * g0), 0.0);
+  EXPECT_EQ(law.stiffness(-g0), 0.0);
+  EXPECT_EQ(law.potential(-g0), 0.0);
+  EXPECT_DOUBLE_EQ(law.force(-0.5 * g0), eps * 0.25 * g0 / 2);
+  EXPECT_DOUBLE_EQ(law.force(0.0), eps * g0 / 2);
+  EXPECT_DOUBLE_EQ(law.force(4e-6), eps * (4e-6 + g0 / 2));
+  // C1 at both joints: force and slope from either side.
+  for (const double joint : {-g0, 0.0}) {
+    const double d = 1e-9 * g0;
+    EXPECT_NEAR(law.force(joint + d), law.force(joint - d), 1e-6 * eps * g0) << joint;
+    EXPECT_NEAR(law.stiffness(joint + d), law.stiffness(joint - d), 1e-6 * eps) << joint;
+  }
+  for (const double p : {-0.9 * g0, -0.3 * g0, 0.2 * g0, 3e-6, 2e-4})
+    expect_consistent(law, p, 0.0);
+  // Damped: the same onset.
+  const DampedLaw damped(std::make_shared<RegularisedPenalty>(eps, g0), 50.0);
+  EXPECT_EQ(damped.onset(), g0);
+  EXPECT_GT(damped.force(-0.5 * g0, 0.0), 0.0);
+  EXPECT_EQ(damped.force(-1.5 * g0, 1.0), 0.0);
+  EXPECT_THROW(RegularisedPenalty(eps, 0.0), std::invalid_argument);
+  EXPECT_THROW(RegularisedPenalty(eps, -1e-6), std::invalid_argument);
+  EXPECT_THROW(RegularisedPenalty(0.0, g0), std::invalid_argument);
+}
+
 TEST(InterfaceLaw, PowerLawMatchesFiniteDifferences) {
   for (const double n : {1.0, 1.5, 2.0, 3.7}) {
     const PowerLaw law(2e9, n);

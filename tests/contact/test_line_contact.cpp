@@ -242,6 +242,48 @@ TEST(LineContact, ResidualAndTangentMatchFiniteDifferencesFromParallelToCrossing
   std::printf("worst: residual %.1e, tangent %.1e\n", worst_r, worst_t);
 }
 
+TEST(LineContact, ARegularisedLawActsBeforeContactWithAConsistentTangent) {
+  // The line part with contact::RegularisedPenalty (g0 = 2e-5 m): parallel yarns 1e-5 m apart
+  // are in line contact with eps lambda (g0 - g)^2 / (2 g0) per unit length, and residual and
+  // tangent match central differences from parallel into the blend, apart and pressed.
+  AllAngleOptions opt;
+  opt.line_scale = 1.0 / (2 * kRadius);
+  const double g0 = 2e-5;
+  const RegularisedPenalty law(kEps, g0);
+  std::mt19937 rng(3);
+  Curves c = make_curves(0.0, 2 * kRadius + 1e-5, 0.0, 0.0, rng);
+  c.b.row(0) *= 1.5;
+  const Total t = total(c, opt, {}, &law);
+  const double length = c.a(0, kPoints - 1) - c.a(0, 0);
+  EXPECT_NEAR(t.force, opt.line_scale * law.force(-1e-5) * length, 1e-9 * t.force);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (const double angle : {0.0, 0.05, 0.25})
+    for (const double distance : {2 * kRadius + 1e-5, 2 * kRadius - 1e-5}) {
+      const Curves d = make_curves(angle, distance, (u(rng) - 0.5) * kH, 0.02 * kRadius, rng);
+      const Total t0 = total(d, opt, {}, &law);
+      ASSERT_GT(t0.force, 0.0) << angle;
+      const double step = 1e-9;
+      Vec fd_residual(6 * kPoints);
+      Mat fd_tangent(6 * kPoints, 6 * kPoints);
+      for (int i = 0; i < 6 * kPoints; ++i) {
+        Curves p = d, m = d;
+        dof(p, i) += step;
+        dof(m, i) -= step;
+        const Total tp = total(p, opt, {}, &law), tm = total(m, opt, {}, &law);
+        fd_residual(i) = (tp.potential - tm.potential) / (2 * step);
+        fd_tangent.col(i) = (tp.residual - tm.residual) / (2 * step);
+      }
+      EXPECT_LT((fd_residual - t0.residual).lpNorm<Eigen::Infinity>() /
+                    t0.residual.lpNorm<Eigen::Infinity>(),
+                1e-5)
+          << angle << " " << distance;
+      EXPECT_LT((fd_tangent - t0.tangent).lpNorm<Eigen::Infinity>() /
+                    t0.tangent.lpNorm<Eigen::Infinity>(),
+                1e-5)
+          << angle << " " << distance;
+    }
+}
+
 /// The all-angle contact with a damped law on a dynamic step (PairRates): where the point
 /// contact is blended with the line contact the blended force s f + U grad s holds the damped
 /// point force, and its tangent the elastic gradient grad U; against central differences of the

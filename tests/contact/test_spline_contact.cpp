@@ -143,6 +143,34 @@ TEST(SplineContact, TangentMatchesCentralDifferencesAtRandomCrossings) {
   }
 }
 
+TEST(SplineContact, ARegularisedLawActsBeforeContactWithAConsistentTangent) {
+  // contact::RegularisedPenalty over g0 = 4 um: a pair 2 um apart is active with force
+  // eps (g0 - g)^2 / (2 g0) along its normal, and the tangent matches central differences at
+  // gaps and penetrations on both sides of contact; 5 um apart it is inactive.
+  const double g0 = 4e-6;
+  const RegularisedPenalty law(kEps, g0);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  int tested = 0;
+  while (tested < 20) {
+    Pair p = random_crossing(rng);
+    const double ua = u(rng), ub = u(rng);
+    const double delta = (tested % 2 == 0 ? -1 : 1) * (0.1 + 0.8 * (0.5 + 0.5 * u(rng))) * g0;
+    if (!place(p, ua, ub, delta))
+      continue;
+    ++tested;
+    const SplineContactResult r = solve(p, law);
+    ASSERT_TRUE(r.active) << "penetration " << delta;
+    EXPECT_NEAR(r.force, law.force(delta), 1e-9 * law.force(delta));
+    EXPECT_LT(tangent_error(p, law), 1e-6) << "penetration " << delta;
+  }
+  Pair apart = random_crossing(rng);
+  while (!place(apart, 0.1, -0.1, -1.25 * g0))
+    apart = random_crossing(rng);
+  EXPECT_FALSE(solve(apart, law).active);
+  EXPECT_TRUE(solve(apart, law).status == ProjectionStatus::Converged);
+}
+
 TEST(SplineContact, TangentMatchesCentralDifferencesNearSegmentEnds) {
   std::mt19937 rng(7);
   const LinearPenalty law(kEps);

@@ -383,6 +383,28 @@ TEST(SurfaceContact, SeparatedPairIsInactiveWithZeroResidual) {
   EXPECT_EQ(r.tangent.norm(), 0.0);
 }
 
+TEST(SurfaceContact, ARegularisedLawActsBeforeContactWithAConsistentTangent) {
+  // contact::RegularisedPenalty over g0 = 2e-5 m: the crossing 1e-5 m apart is active with
+  // eps (g0 - g)^2 / (2 g0); the tangent matches central differences there; 3e-5 m apart it is
+  // not.
+  const double g0 = 2e-5;
+  const RegularisedPenalty law(kEps, g0);
+  const SurfaceContactResult r = solve(right_angle_crossing(2 * kB + 1e-5), law);
+  ASSERT_TRUE(r.active);
+  EXPECT_NEAR(r.force, kEps * 1e-10 / (2 * g0), 1e-9 * r.force);
+  EXPECT_FALSE(solve(right_angle_crossing(2 * kB + 3e-5), law).active);
+  std::mt19937 rng(5);
+  int tested = 0;
+  while (tested < 4) {
+    Pair p = random_crossing(rng);
+    if (!place(p, 0.5 * g0))
+      continue;
+    ++tested;
+    ASSERT_TRUE(solve(p, law).active);
+    EXPECT_LT(tangent_error(p, law, {}, nullptr, 1e-8), 1e-6);
+  }
+}
+
 // ---- Residual and tangent against finite differences -------------------------------------------
 
 TEST(SurfaceContact, ResidualIsTheGradientOfTheContactPotential) {

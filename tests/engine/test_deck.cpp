@@ -762,6 +762,28 @@ TEST(DeckSplines, ExponentBelongsToThePowerLawOnly) {
             where(deck, "0.5\n") + "contacts[0].exponent: expected a number >= 1, found 0.5");
 }
 
+TEST(DeckSplines, RegularisationBelongsToTheLinearLawOnly) {
+  std::string deck = replace(replace(kSplines, "law = \"power\"", "law = \"linear\""),
+                             "exponent = 1.5", "regularisation = 2e-6");
+  const Model m = read_deck_string(deck, "deck.toml");
+  EXPECT_EQ(m.spline_contacts[0].law.regularisation, 2e-6);
+  EXPECT_EQ(m.spline_contacts[0].law.exponent, 1.0);
+
+  deck = replace(kSplines, "exponent = 1.5", "exponent = 1.5\nregularisation = 2e-6");
+  auto errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "2e-6") +
+                           "contacts[0].regularisation: 'regularisation' applies only to law = "
+                           "\"linear\"; this contact's law is \"power\"");
+
+  deck = replace(replace(kSplines, "law = \"power\"", "law = \"linear\""), "exponent = 1.5",
+                 "regularisation = 0");
+  errors = errors_of(deck);
+  ASSERT_EQ(errors.size(), 1u) << joined(errors);
+  EXPECT_EQ(errors[0], where(deck, "0\ndamping") +
+                           "contacts[0].regularisation: expected a number > 0, found 0");
+}
+
 TEST(DeckSplines, SplineInBothGroupsIsReported) {
   const std::string deck = replace(kSplines, "[[\"rod\"], [\"cross\", \"listed\"]]",
                                    "[[\"rod\"], [\"cross\", \"rod\"]]");

@@ -52,6 +52,10 @@ TEST(FabricDeck, SmallDeckBuildsTheWeaveAndTheTest) {
   EXPECT_EQ(m.splines.size(), 7u);
   ASSERT_EQ(m.spline_contacts.size(), 1u);
   EXPECT_DOUBLE_EQ(m.spline_contacts[0].law.penalty, 1.5e6); // default: the paper's
+  EXPECT_EQ(m.spline_contacts[0].law.regularisation, 0.0);
+  const Model regularised =
+      read_deck_string(std::string(kValid) + "[contact]\nregularisation = 2e-6\n", "fabric.toml");
+  EXPECT_EQ(regularised.spline_contacts[0].law.regularisation, 2e-6);
   ASSERT_TRUE(m.biaxial.has_value());
   EXPECT_EQ(m.biaxial->strain_ratio, 2.0);
   EXPECT_EQ(m.biaxial->warp_start.size(), 3u);
@@ -406,6 +410,13 @@ TEST(FabricDeck, MissingAndInconsistentValuesAreReported) {
   e = errors_of(std::string(kValid) + "[contact]\nlaw = \"power\"\npenalty = 1e6\n");
   ASSERT_EQ(e.size(), 1u) << joined(e);
   EXPECT_NE(e[0].find("missing required key 'exponent'"), std::string::npos) << e[0];
+  e = errors_of(std::string(kValid) +
+                "[contact]\nlaw = \"power\"\nexponent = 2.0\nregularisation = 1e-6\n");
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_NE(e[0].find("contact.regularisation: 'regularisation' applies only to law = "
+                      "\"linear\""),
+            std::string::npos)
+      << e[0];
   // [contact] is checked even when [fabric] has errors of its own.
   e = errors_of(with("a = 1e-3", "a = -1e-3") + "[contact]\nlaw = \"lineer\"\n");
   ASSERT_EQ(e.size(), 2u) << joined(e);
