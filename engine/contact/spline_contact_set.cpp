@@ -168,6 +168,10 @@ void SplineContactSet::control_points(const Definition& d, const broadphase::Can
   }
 }
 
+const contact::SegmentBasis& SplineContactSet::segment_of(const Definition& d, int id) const {
+  return curves_[d.spline[id]].segment(d.segment[id]);
+}
+
 contact::AllAngleOptions SplineContactSet::all_angle_of(const Definition& d, double ra,
                                                         double rb) const {
   contact::AllAngleOptions all_angle = d.all_angle;
@@ -232,14 +236,12 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
           contact::ProjectionStart start;
           if (item.warm >= 0)
             start = {committed_[item.warm].xi_A, committed_[item.warm].xi_B, true};
-          const auto& ca = curves_[d.spline[item.pair.first]];
-          const auto& cb = curves_[d.spline[item.pair.second]];
           // The compaction grows both contact radii by half of it.
           const double half = half_compaction[item.definition];
           const double ra = d.radius[item.pair.first] + half;
           const double rb = d.radius[item.pair.second] + half;
-          const auto& sa = ca.segment(d.segment[item.pair.first]);
-          const auto& sb = cb.segment(d.segment[item.pair.second]);
+          const auto& sa = segment_of(d, item.pair.first);
+          const auto& sb = segment_of(d, item.pair.second);
           contact::SplineContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
           const contact::PairRates* pair_rates = nullptr;
           contact::PairRates local_rates;
@@ -277,9 +279,8 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
               continue;
             Eigen::Matrix3d A, B;
             control_points(d, item.pair, x, A, B);
-            const auto& sa = curves_[d.spline[item.pair.first]].segment(d.segment[item.pair.first]);
-            const auto& sb =
-                curves_[d.spline[item.pair.second]].segment(d.segment[item.pair.second]);
+            const auto& sa = segment_of(d, item.pair.first);
+            const auto& sb = segment_of(d, item.pair.second);
             if (item.first_touch) {
               // Anchored where it is if this increment converges (commit).
               if (d.torsional)
@@ -309,9 +310,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
                          t.dissipation, t.energy,   t.anchor};
           }
         });
-  }
 
-  if (any_friction_) {
     // Friction at the line contacts' Gauss points, on the histories of the last converged
     // increment.
     line_items_.clear();
@@ -321,27 +320,24 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
     line_work_.resize(line_items_.size());
     line_friction_.resize(line_items_.size());
     assign_line_histories();
-    contact::FrictionOptions friction_options;
-    friction_options.compute_tangent = want_tangent;
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, line_items_.size(), 4),
-        [&](const tbb::blocked_range<std::size_t>& range) {
-          for (std::size_t l = range.begin(); l != range.end(); ++l) {
-            const Work& item = work_[line_items_[l]];
-            const Definition& d = *definitions_[item.definition];
-            Eigen::Matrix3d A, B;
-            control_points(d, item.pair, x, A, B);
-            const double half = half_compaction[item.definition];
-            const double ra = d.radius[item.pair.first] + half;
-            const double rb = d.radius[item.pair.second] + half;
-            const auto& sa = curves_[d.spline[item.pair.first]].segment(d.segment[item.pair.first]);
-            const auto& sb =
-                curves_[d.spline[item.pair.second]].segment(d.segment[item.pair.second]);
-            contact::line_friction(A, sa, ra, B, sb, rb, *d.law, all_angle_of(d, ra, rb),
-                                   item.result, line_work_[l].with_history, line_work_[l].history,
-                                   *d.friction, line_friction_[l], friction_options);
-          }
-        });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, line_items_.size(), 4),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t l = range.begin(); l != range.end(); ++l) {
+                          const Work& item = work_[line_items_[l]];
+                          const Definition& d = *definitions_[item.definition];
+                          Eigen::Matrix3d A, B;
+                          control_points(d, item.pair, x, A, B);
+                          const double half = half_compaction[item.definition];
+                          const double ra = d.radius[item.pair.first] + half;
+                          const double rb = d.radius[item.pair.second] + half;
+                          const auto& sa = segment_of(d, item.pair.first);
+                          const auto& sb = segment_of(d, item.pair.second);
+                          contact::line_friction(A, sa, ra, B, sb, rb, *d.law,
+                                                 all_angle_of(d, ra, rb), item.result,
+                                                 line_work_[l].with_history, line_work_[l].history,
+                                                 *d.friction, line_friction_[l], friction_options);
+                        }
+                      });
   }
 
   summarise();
@@ -496,7 +492,7 @@ void SplineContactSet::assign_line_histories() {
   for (std::size_t l = 0; l < line_items_.size(); ++l) {
     const Work& item = work_[line_items_[l]];
     const Definition& d = *definitions_[item.definition];
-    const auto& sb = curves_[d.spline[item.pair.second]].segment(d.segment[item.pair.second]);
+    const auto& sb = segment_of(d, item.pair.second);
     LineWork& lw = line_work_[l];
     lw.with_history = lw.first_touch = 0;
     for (int i = 0; i < contact::kMaxGaussPoints; ++i) {

@@ -175,8 +175,10 @@ private:
   /// Gives each Gauss point in contact of a frictional line contact its history (serial: one
   /// point per history).
   void assign_line_histories();
-  /// The all-angle options and contact radii of a work item at this evaluation (the compaction
-  /// grows both radii by half of it).
+  /// The contact spline's segment of segment id `id` of definition `d`.
+  const contact::SegmentBasis& segment_of(const Definition& d, int id) const;
+  /// The definition's all-angle options for a pair of contact radii ra, rb (m): the line scale
+  /// is its line_penalty / penalty, or 1 / (ra + rb).
   contact::AllAngleOptions all_angle_of(const Definition& d, double ra, double rb) const;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).

@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <deque>
 #include <fmt/format.h>
+#include <initializer_list>
 #include <limits>
 #include <map>
 #include <memory>
@@ -233,6 +234,18 @@ bool has_mass_damping(const Model& model) {
   return false;
 }
 
+/// The first `rows` rows of curves.csv of a run being restarted, which must hold the columns
+/// `names` (`test` names the test's curves in the error).
+output::CsvTable resumed_curves(const std::filesystem::path& file, long rows,
+                                std::initializer_list<const char*> names, const char* test) {
+  output::CsvTable table = output::read_csv_table(file, rows);
+  for (const char* name : names)
+    if (table.column(name) < 0)
+      throw std::runtime_error(
+          fmt::format("{} has no column '{}' to resume {} curves", file.string(), name, test));
+  return table;
+}
+
 /// The curves of a picture frame (docs/shear-tests.md): the crosshead's travel and force, the
 /// frame's shear angle and the one measured on the central yarns, the benchmark's shear forces,
 /// the stored energies and, with contact between yarns of one direction, how many of those
@@ -311,11 +324,8 @@ public:
   void resume(const std::filesystem::path& file, long rows) override {
     if (!parallel_)
       return;
-    const output::CsvTable table = output::read_csv_table(file, rows);
-    for (const char* name : {"frame_angle [deg]", "parallel_contacts [-]"})
-      if (table.column(name) < 0)
-        throw std::runtime_error(fmt::format(
-            "{} has no column '{}' to resume the picture frame's curves", file.string(), name));
+    const output::CsvTable table = resumed_curves(
+        file, rows, {"frame_angle [deg]", "parallel_contacts [-]"}, "the picture frame's");
     const std::vector<double> angle = table.numbers("frame_angle [deg]");
     const std::vector<double> parallel = table.numbers("parallel_contacts [-]");
     for (std::size_t k = 0; k < angle.size() && !locked_at_; ++k)
@@ -385,11 +395,8 @@ public:
 
   /// The ideal angles and forces of the rows kept: the energy method marches over them.
   void resume(const std::filesystem::path& file, long rows) override {
-    const output::CsvTable table = output::read_csv_table(file, rows);
-    for (const char* name : {"ideal_angle [deg]", "force [N]"})
-      if (table.column(name) < 0)
-        throw std::runtime_error(fmt::format(
-            "{} has no column '{}' to resume the bias extension's curves", file.string(), name));
+    const output::CsvTable table =
+        resumed_curves(file, rows, {"ideal_angle [deg]", "force [N]"}, "the bias extension's");
     const std::vector<double> angle = table.numbers("ideal_angle [deg]");
     const std::vector<double> force = table.numbers("force [N]");
     for (std::size_t k = 0; k < angle.size(); ++k) {

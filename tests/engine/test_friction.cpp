@@ -6,6 +6,7 @@
 // balance of the work of the drag; the force held while the point slides over the rail's
 // segment boundaries (history handed over between segment pairs); Newton's rate in slip.
 #include "beam_models.hpp"
+#include "drag_recorder.hpp"
 #include "engine/solver/simulation.hpp"
 
 #include <cmath>
@@ -76,37 +77,13 @@ Drag drag_model(double mu_s, double mu_k, const TimeTable& drag, double t_end, d
 
 /// Per increment of the drag: time, imposed x, drag force (x reaction sum of the slider, N),
 /// the contact's summary, and the Newton residuals.
-struct Sample {
-  double time, u, force;
-  ContactSummary contact;
-  std::vector<double> residuals;
-};
+using Sample = test::DragSample;
 
-class Recorder final : public SimulationObserver {
-public:
-  Recorder(const Drag& d, const TimeTable& drag) : drag_(d), table_(drag) {}
-  void on_increment(const Simulation& sim, const IncrementReport& r) override {
-    double rx = 0;
-    for (int node : drag_.slider)
-      rx += sim.reactions()(0, node);
-    // The drag force (what the crosshead pulls with) is the x reaction of the slider's nodes; it
-    // balances the friction force on the slider, which opposes the motion.
-    samples.push_back(
-        {r.time, table_.at(r.time), rx, sim.contact()->summary(), r.residual_history});
-  }
-  std::vector<Sample> samples;
-
-private:
-  const Drag& drag_;
-  TimeTable table_;
-};
-
-/// The drag of drag_model(mu_s, mu_k, table, t_end, dt), run: one sample per increment.
 std::vector<Sample> run_drag(double mu_s, double mu_k, const TimeTable& table, double t_end,
                              double dt) {
   const Drag d = drag_model(mu_s, mu_k, table, t_end, dt);
   Simulation sim(d.model);
-  Recorder rec(d, table);
+  test::DragRecorder rec(d.slider, table);
   sim.run(&rec);
   return rec.samples;
 }

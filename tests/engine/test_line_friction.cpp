@@ -7,6 +7,7 @@
 // dissipation and the balance of the drag's work; Newton's rate in slip; one and two threads and a
 // restart through the checkpoint file bitwise the same.
 #include "beam_models.hpp"
+#include "drag_recorder.hpp"
 #include "engine/output/checkpoint_file.hpp"
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/simulation.hpp"
@@ -104,34 +105,13 @@ Drag drag_model(double mu_s, double mu_k, const TimeTable& drag, double t_end, d
   return d;
 }
 
-struct Sample {
-  double time, u, force;
-  ContactSummary contact;
-  std::vector<double> residuals;
-};
-
-class Recorder final : public SimulationObserver {
-public:
-  Recorder(const Drag& d, const TimeTable& drag) : drag_(d), table_(drag) {}
-  void on_increment(const Simulation& sim, const IncrementReport& r) override {
-    double rx = 0;
-    for (int node : drag_.slider)
-      rx += sim.reactions()(0, node);
-    samples.push_back(
-        {r.time, table_.at(r.time), rx, sim.contact()->summary(), r.residual_history});
-  }
-  std::vector<Sample> samples;
-
-private:
-  const Drag& drag_;
-  TimeTable table_;
-};
+using Sample = test::DragSample;
 
 std::vector<Sample> run_drag(double mu_s, double mu_k, const TimeTable& table, double t_end,
                              double dt, bool elastic = false) {
   const Drag d = drag_model(mu_s, mu_k, table, t_end, dt, elastic);
   Simulation sim(d.model);
-  Recorder rec(d, table);
+  test::DragRecorder rec(d.slider, table);
   sim.run(&rec);
   return rec.samples;
 }
