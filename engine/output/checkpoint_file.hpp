@@ -16,10 +16,15 @@
 //                (SimulationCheckpoint::pattern_groups)
 //   /contact     with spline contact: attributes candidates_version, definitions;
 //                boxes_<k> (n_segments, 6): min then max corner of definition k's last search;
-//                committed_keys (n, 3) int32, committed (n, 3): xi_A, xi_B, active; pair_keys
-//                (n, 3) int32, pair_flags (n, 4) int32: status, degenerate, active, iterations;
-//                pair_values (n, 17): xi_A, xi_B, distance, gap, penetration, penetration_rate,
-//                force, potential, point_A, point_B, normal
+//                committed_keys (n, 3) int32, committed (n, 3): xi_A, xi_B, active;
+//                committed_friction (n, 4): anchor_A, anchor_B, slip, state (0 none, 1 stick,
+//                2 slip) and attribute friction_dissipated; committed_twist (n, 3): twist anchor,
+//                twist slip, state; line_committed_keys (m, 4) int32: definition, slave segment,
+//                Gauss point, master spline, line_committed (m, 3): anchor, slip, state (the
+//                line contact's friction; absent in older files: none); pair_keys (n, 3) int32,
+//                pair_flags (n, 4) int32: status, degenerate, active, iterations; pair_values
+//                (n, 17): xi_A, xi_B, distance, gap, penetration, penetration_rate, force,
+//                potential, point_A, point_B, normal
 //   /surface_contact  with surface contact: attributes candidates_version, definitions,
 //                summary_* (the last evaluation's ContactSummary); boxes_<k> as /contact;
 //                committed_keys (n, 3) int32, committed (n, 5): zeta_A, theta_A, zeta_B, theta_B,
