@@ -142,9 +142,8 @@ JetT<H> point_share_jet(const Matrix3d& control_A, const SegmentBasis& basis_A, 
       all_angle);
 }
 
-} // namespace
-
-GaussRule gauss_rule(int n) {
+/// The rule of n points, computed (gauss_rule returns the tabulated ones).
+GaussRule compute_gauss_rule(int n) {
   GaussRule rule;
   rule.n = std::clamp(n, 1, kMaxGaussPoints);
   n = rule.n;
@@ -172,6 +171,20 @@ GaussRule gauss_rule(int n) {
     rule.w[i] = 1.0 / ((1.0 - z * z) * dp * dp); // 2 / ((1 - z^2) P_n'^2), halved
   }
   return rule;
+}
+
+} // namespace
+
+const GaussRule& gauss_rule(int n) {
+  // Computed once for every n (thread-safe static initialisation): the line contact and its
+  // friction ask for the rule at every pair of every Newton iteration.
+  static const std::array<GaussRule, kMaxGaussPoints> rules = [] {
+    std::array<GaussRule, kMaxGaussPoints> out{};
+    for (int k = 1; k <= kMaxGaussPoints; ++k)
+      out[k - 1] = compute_gauss_rule(k);
+    return out;
+  }();
+  return rules[std::clamp(n, 1, kMaxGaussPoints) - 1];
 }
 
 double point_share(double sine2, const AllAngleOptions& options, double* ds, double* d2s) {
@@ -210,7 +223,7 @@ void line_contact(const Matrix3d& control_A, const SegmentBasis& basis_A, double
     out.tangent.setZero();
   const double reach = radius_A + radius_B;
   const double hi2 = all_angle.point_sine * all_angle.point_sine;
-  const GaussRule rule = gauss_rule(all_angle.gauss_points);
+  const GaussRule& rule = gauss_rule(all_angle.gauss_points);
   double deepest = -std::numeric_limits<double>::infinity();
   for (int i = 0; i < rule.n; ++i) {
     const double ua = rule.u[i];

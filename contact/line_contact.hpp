@@ -38,8 +38,9 @@ struct GaussRule {
   std::array<double, kMaxGaussPoints> w{};
 };
 /// The rule of n points (n clamped to [1, kMaxGaussPoints]), by Newton's method on the Legendre
-/// polynomial P_n (Abramowitz and Stegun 25.4.29; Tricomi's starting guesses).
-GaussRule gauss_rule(int n);
+/// polynomial P_n (Abramowitz and Stegun 25.4.29; Tricomi's starting guesses), computed once
+/// for every n on the first call.
+const GaussRule& gauss_rule(int n);
 
 /// The point contact's share s of a contact whose tangents make an angle of squared sine
 /// `sine2`: 0 at or below line_sine, 1 at or above point_sine, and between them the quintic

@@ -35,7 +35,7 @@ void line_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A
   const std::uint16_t mask = contact.line_mask & with_history;
   if (mask == 0)
     return;
-  const GaussRule rule = gauss_rule(all_angle.gauss_points);
+  const GaussRule& rule = gauss_rule(all_angle.gauss_points);
   const double reach = radius_A + radius_B;
   const double lambda = all_angle.line_scale;
   const double eps = friction.eps_t() * lambda; // N/m^2

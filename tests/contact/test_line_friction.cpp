@@ -75,7 +75,7 @@ Total total(const Curves& c, const AllAngleOptions& opt, const CoulombFriction& 
   Total t;
   SplineContactResult r;
   LineFrictionResult f;
-  const GaussRule rule = gauss_rule(opt.gauss_points);
+  const GaussRule& rule = gauss_rule(opt.gauss_points);
   for (int i = 0; i < kSegments; ++i)
     for (int j = 0; j < kSegments; ++j) {
       all_angle_contact(curve().control_points(c.a, i), curve().segment(i), kRadius,
