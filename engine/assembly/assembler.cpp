@@ -182,7 +182,8 @@ BeamNodalValues Assembler::nodal_values(const State& state, int e) const {
 }
 
 void Assembler::add_beams(const State& state, Eigen::VectorXd& residual, bool want_tangent,
-                          const StiffnessDamping& damping) {
+                          const StiffnessDamping& damping,
+                          const std::vector<Eigen::Matrix<double, 6, 2>>* stress) {
   const bool damped = damping.b != 0.0 && damping.velocity != nullptr;
   const bool need_K = want_tangent || damped;
   double* values = matrix_.valuePtr();
@@ -196,12 +197,20 @@ void Assembler::add_beams(const State& state, Eigen::VectorXd& residual, bool wa
           for (std::size_t k = range.begin(); k != range.end(); ++k) {
             const int e = colour[k];
             const BeamNodalValues v = nodal_values(state, e);
-            beam_internal_force(reference_[e], state.gauss[e], v, f, need_K ? &K : nullptr);
+            // The stress terms from `stress` where the tangent is wanted and no damping needs
+            // the strains' own K first.
+            const Eigen::Matrix<double, 6, 2>* s =
+                stress && want_tangent && !damped ? &(*stress)[e] : nullptr;
+            beam_internal_force(reference_[e], state.gauss[e], v, f, need_K ? &K : nullptr, s);
             if (damped) {
               ElementVector ve;
               for (int i = 0; i < 3; ++i)
                 ve.segment<6>(6 * i) = damping.velocity->segment<6>(6 * connectivity_[e][i]);
               f += damping.b * (K * ve);
+              if (stress && want_tangent) {
+                ElementVector unused;
+                beam_internal_force(reference_[e], state.gauss[e], v, unused, &K, &(*stress)[e]);
+              }
             }
             for (int i = 0; i < 3; ++i)
               residual.segment<6>(6 * connectivity_[e][i]) += f.segment<6>(6 * i);

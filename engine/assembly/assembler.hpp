@@ -53,9 +53,13 @@ public:
   void zero_matrix();
 
   /// Adds the beams' internal forces to residual (6 n_nodes) and, if want_tangent, their tangents
-  /// to matrix(). Runs the colours in order, each in parallel.
+  /// to matrix(). Runs the colours in order, each in parallel. With `stress` (per element, the
+  /// material section resultants at its Gauss points) the tangent's stress terms take those
+  /// (the mixed integration point Newton, beam_internal_force); the forces, and the stiffness
+  /// damping's K v, stay those of the current strains.
   void add_beams(const State& state, Eigen::VectorXd& residual, bool want_tangent,
-                 const StiffnessDamping& damping);
+                 const StiffnessDamping& damping,
+                 const std::vector<Eigen::Matrix<double, 6, 2>>* stress = nullptr);
 
   /// Adds a 3 x 3 block to the tangent at node rows/cols (offset 0: translations, 3: rotations).
   void add_node_block(int node, int row_offset, int col_offset, const Eigen::Matrix3d& block);

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <stdexcept>
+#include <unsupported/Eigen/AutoDiff>
 
 namespace yarnsim {
 
@@ -210,6 +211,29 @@ struct GaussPoints {
     c = dot(Mv, nz) + dot(S0da, mw);
     grad_alpha = c * dg + g * r;
   }
+
+  /// The same Gauss points with the spatial resultants nz, mw (and r, c, which are linear in
+  /// them) of the material resultants `stress` (rows 0-2 forces N, 3-5 moments N m, columns the
+  /// Gauss points) instead of those of the current strains: the stress terms of the mixed
+  /// integration point tangent (beam_internal_force). The gradients are left as they are.
+  GaussPoints with_resultants(const std::array<GaussState, 2>& h,
+                              const Eigen::Matrix<double, 6, 2>& stress) const {
+    GaussPoints out = *this;
+    const Mat Qn = pair_of(h[0].Q_n, h[1].Q_n);
+    Vec n, m;
+    for (int i = 0; i < 3; ++i) {
+      n[i] = Pair{stress(i, 0), stress(i, 1)};
+      m[i] = Pair{stress(3 + i, 0), stress(3 + i, 1)};
+    }
+    out.nz = mul(Qn, n);
+    out.mw = mul(Qn, m);
+    const Pair av = dot(a, v);
+    const Pair anz = dot(a, out.nz);
+    out.r = cross(out.nz, v) + 0.5 * (av * out.nz + anz * v) - dot(v, out.nz) * a +
+            0.5 * cross(out.mw, da);
+    out.c = dot(Mv, out.nz) + dot(S0da, out.mw);
+    return out;
+  }
 };
 
 /// Second derivatives of the energy density at the two Gauss points with respect to (x', alpha,
@@ -314,7 +338,7 @@ inline double sum(Pair p) {
 
 void beam_internal_force(const BeamReference& ref, const std::array<GaussState, 2>& history,
                          const BeamNodalValues& values, ElementVector& force,
-                         ElementMatrix* tangent) {
+                         ElementMatrix* tangent, const Eigen::Matrix<double, 6, 2>* stress) {
   const GaussPoints q(ref, history, values);
   // Weight times N_i and N'_i, lane g for Gauss point g.
   Pair WN[3], WdN[3];
@@ -334,7 +358,7 @@ void beam_internal_force(const BeamReference& ref, const std::array<GaussState, 
   // K = sum_g W B_g^T H_g B_g with B_g mapping node (u_j, alpha_j) to (N'_j u_j, N_j alpha_j,
   // N'_j alpha_j). Both Gauss points are summed per 6 x 6 node block; the blocks below the
   // diagonal are the transposes of those above (K is a Hessian).
-  const GaussHessians H(ref, history, q);
+  const GaussHessians H(ref, history, stress ? q.with_resultants(history, *stress) : q);
   ElementMatrix& K = *tangent;
   for (int i = 0; i < 3; ++i)
     for (int j = i; j < 3; ++j) {
@@ -380,6 +404,45 @@ Eigen::Matrix<double, 6, 2> beam_section_resultants(const BeamReference& ref,
     out.col(g).head<3>() = ref.C_N * gamma;
     out.col(g).tail<3>() = ref.C_M * K;
   }
+  return out;
+}
+
+void beam_strains(const BeamReference& ref, const std::array<GaussState, 2>& history,
+                  const BeamNodalValues& values, const BeamNodalValues& direction,
+                  Eigen::Matrix<double, 6, 2>& strain, Eigen::Matrix<double, 6, 2>& rate) {
+  // Forward mode along `direction`: x', alpha and alpha' are linear in the nodal values, so the
+  // derivative of the strains at values + h direction at h = 0 is B direction exactly.
+  using Dual = Eigen::AutoDiffScalar<Eigen::Matrix<double, 1, 1>>;
+  const auto dual = [](const Vector3d& value, const Vector3d& derivative) {
+    Vec3<Dual> out;
+    for (int i = 0; i < 3; ++i)
+      out(i) = Dual(value(i), Eigen::Matrix<double, 1, 1>(derivative(i)));
+    return out;
+  };
+  for (int g = 0; g < 2; ++g) {
+    const GaussKinematics k = kinematics(ref, values, g);
+    const GaussKinematics d = kinematics(ref, direction, g);
+    const Vec3<Dual> dx = dual(k.dx, d.dx), alpha = dual(k.alpha, d.alpha),
+                     dalpha = dual(k.dalpha, d.dalpha);
+    const Mat3<Dual> QnT = history[g].Q_n.transpose().cast<Dual>();
+    const Vec3<Dual> gamma =
+        QnT * (rodrigues_rotation<Dual>(alpha).transpose() * dx) - ref.gamma0[g].cast<Dual>();
+    const Vec3<Dual> K =
+        QnT * (rodrigues_xi<Dual>(alpha).transpose() * dalpha + history[g].kappa_n.cast<Dual>());
+    for (int i = 0; i < 3; ++i) {
+      strain(i, g) = gamma(i).value();
+      strain(3 + i, g) = K(i).value();
+      rate(i, g) = gamma(i).derivatives()(0);
+      rate(3 + i, g) = K(i).derivatives()(0);
+    }
+  }
+}
+
+Eigen::Matrix<double, 6, 2> beam_resultants_of_strains(const BeamReference& ref,
+                                                       const Eigen::Matrix<double, 6, 2>& strain) {
+  Eigen::Matrix<double, 6, 2> out;
+  out.topRows<3>() = ref.C_N * strain.topRows<3>();
+  out.bottomRows<3>() = ref.C_M * strain.bottomRows<3>();
   return out;
 }
 

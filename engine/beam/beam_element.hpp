@@ -61,10 +61,30 @@ BeamReference make_beam_reference(const Eigen::Matrix3d& X, const Eigen::Vector3
                                   const Section& section);
 
 /// Internal force vector (gradient of the strain energy), 18 entries, N and N m conjugate to
-/// (u, alpha). If tangent is non-null it receives the consistent tangent (Hessian), 18 x 18.
+/// (u, alpha). If tangent is non-null it receives the consistent tangent (Hessian), 18 x 18:
+///   K = sum_g W (B^T C B + G(n, m)),  G the stress terms, linear in the section resultants.
+/// With `stress` (material resultants at the Gauss points, as beam_section_resultants) G takes
+/// those instead of the current strains' C (Gamma; K): the tangent of the mixed integration
+/// point Newton (Magisano, Leonetti and Garcea, "How to improve efficiency and robustness of the
+/// Newton method in geometrically non-linear structural problem discretized via displacement-based
+/// finite elements", Comput. Methods Appl. Mech. Engrg. 313 (2017) 986; formulation.md
+/// "Solution"). The force is the displacement-based one either way.
 void beam_internal_force(const BeamReference& ref, const std::array<GaussState, 2>& history,
                          const BeamNodalValues& values, ElementVector& force,
-                         ElementMatrix* tangent);
+                         ElementMatrix* tangent,
+                         const Eigen::Matrix<double, 6, 2>* stress = nullptr);
+
+/// Material strains at the two Gauss points (rows 0-2 Gamma, rows 3-5 K, columns the Gauss
+/// points) of `values`, and in `rate` their derivative along the nodal increment `direction`
+/// (x: translations, m; alpha: Rodrigues increments): the linearised strain increment B direction.
+void beam_strains(const BeamReference& ref, const std::array<GaussState, 2>& history,
+                  const BeamNodalValues& values, const BeamNodalValues& direction,
+                  Eigen::Matrix<double, 6, 2>& strain, Eigen::Matrix<double, 6, 2>& rate);
+
+/// Section resultants (rows 0-2 forces N, rows 3-5 moments N m) of material strains laid out as
+/// beam_strains'.
+Eigen::Matrix<double, 6, 2> beam_resultants_of_strains(const BeamReference& ref,
+                                                       const Eigen::Matrix<double, 6, 2>& strain);
 
 /// Strain energy of the element, J.
 double beam_strain_energy(const BeamReference& ref, const std::array<GaussState, 2>& history,

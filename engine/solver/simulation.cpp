@@ -272,7 +272,8 @@ struct Simulation::IterationGraph {
                 const auto t0 = std::chrono::steady_clock::now();
                 Eigen::VectorXd& r = *s.iteration_.residual;
                 s.assembler_->add_beams(s.state_, r, s.iteration_.want_tangent,
-                                        s.iteration_.damping);
+                                        s.iteration_.damping,
+                                        s.mixed_.active ? &s.mixed_.resultants : nullptr);
                 double f = 0, m = 0;
                 for (int i = 0; i < s.state_.n_nodes(); ++i) {
                   f = std::max(f, r.segment<3>(6 * i).norm());
@@ -477,6 +478,59 @@ void Simulation::move_along(const Eigen::VectorXd& delta, double s) {
       else
         state_.alpha(c - 3, i) += s * delta(e);
     }
+  if (mixed_.active) {
+    // x and alpha enter the Gauss points' x', alpha, alpha' linearly within the increment, so
+    // the point lambda delta from the correction's start has the linearised strains
+    // strain + lambda rate.
+    mixed_.lambda += s;
+    const std::vector<BeamReference>& refs = assembler_->references();
+    tbb::parallel_for(std::size_t{0}, refs.size(), [&](std::size_t e) {
+      mixed_.resultants[e] =
+          beam_resultants_of_strains(refs[e], mixed_.strain[e] + mixed_.lambda * mixed_.rate[e]);
+    });
+  }
+}
+
+void Simulation::start_mixed_stresses(const Eigen::VectorXd& delta, bool from_converged) {
+  const std::vector<int>& eq = assembler_->equations();
+  const std::vector<BeamReference>& refs = assembler_->references();
+  const std::size_t n_elements = refs.size();
+  mixed_.strain.resize(n_elements);
+  mixed_.rate.resize(n_elements);
+  mixed_.resultants.resize(n_elements);
+  tbb::parallel_for(std::size_t{0}, n_elements, [&](std::size_t e) {
+    const BeamNodalValues values = assembler_->nodal_values(state_, static_cast<int>(e));
+    BeamNodalValues direction;
+    const std::array<int, 3>& nodes = model_.elements[e].nodes;
+    for (int j = 0; j < 3; ++j)
+      for (int c = 0; c < 3; ++c) {
+        const int eu = eq[6 * nodes[j] + c], ea = eq[6 * nodes[j] + 3 + c];
+        direction.x(c, j) = eu >= 0 ? delta(eu) : 0.0;
+        direction.alpha(c, j) = ea >= 0 ? delta(ea) : 0.0;
+      }
+    if (!from_converged) {
+      beam_strains(refs[e], state_.gauss[e], values, direction, mixed_.strain[e], mixed_.rate[e]);
+    } else {
+      // The correction was solved with the converged state's tangent: its linear model runs
+      // from the converged state u_n through the predictor u_p, so the strains are
+      // eps(u_n) + B_n (u_p - u_n) + lambda B_n delta, not the predictor's own (the prescribed
+      // motion alone strains the elements next to it: attempt()).
+      BeamNodalValues converged, predictor_motion;
+      for (int j = 0; j < 3; ++j) {
+        converged.x.col(j) = state_.x_n.col(nodes[j]);
+        predictor_motion.x.col(j) = values.x.col(j) - converged.x.col(j);
+        predictor_motion.alpha.col(j) = values.alpha.col(j);
+      }
+      converged.alpha.setZero();
+      Eigen::Matrix<double, 6, 2> strain_n, rate_p;
+      beam_strains(refs[e], state_.gauss[e], converged, predictor_motion, strain_n, rate_p);
+      beam_strains(refs[e], state_.gauss[e], converged, direction, strain_n, mixed_.rate[e]);
+      mixed_.strain[e] = strain_n + rate_p;
+    }
+    mixed_.resultants[e] = beam_resultants_of_strains(refs[e], mixed_.strain[e]);
+  });
+  mixed_.lambda = 0;
+  mixed_.active = true;
 }
 
 void Simulation::prune_couplings() {
@@ -507,6 +561,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   // increment's motion on was measured and dropped: docs/performance.md.)
   state_.x = state_.x_n;
   state_.alpha.setZero();
+  mixed_.active = false; // the first evaluation's tangent is the displacement-based one
   solver_->start_attempt();
   if (contact_)
     contact_->set_time(t_new);
@@ -667,8 +722,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     // The converged state's tangent for the first correction (above): evaluated there, kept
     // where its active set is the predictor's; the predictor is evaluated again otherwise. The
     // predictor is the converged state with the prescribed values at t_new, made again.
+    bool from_converged = false;
     if (first_from_converged) {
       first_from_converged = false;
+      from_converged = true;
       const Eigen::VectorXd rhs_at_predictor = rhs_;
       state_.x = state_.x_n;
       state_.alpha.setZero();
@@ -758,6 +815,8 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     // current candidates describes.
     if (options_.line_search && max_contact_step_ > 0 && lambda * last_du > max_contact_step_)
       lambda = max_contact_step_ / last_du;
+    if (options_.mixed_integration_point)
+      start_mixed_stresses(delta, from_converged);
     move_along(delta, lambda);
   }
   // The last iteration's iterate was vetoed and damped back (the loop's `continue`).

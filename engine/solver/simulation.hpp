@@ -122,6 +122,10 @@ struct SimulationOptions {
   /// tangent of the converged state (Simulation::attempt); false: with the tangent at the
   /// predictor, as without a line search.
   bool first_correction_from_converged_state = true;
+  /// The mixed integration point Newton (formulation.md "Solution"): the beams' tangent takes
+  /// the section resultants of the strains linearised along the correction in use instead of
+  /// those of the current strains; false: the displacement-based Newton.
+  bool mixed_integration_point = true;
 };
 
 class Simulation {
@@ -278,6 +282,20 @@ private:
     double ref_moment = 0; ///< largest nodal internal moment, N m
   };
   IterationData iteration_;
+  /// The mixed integration point Newton's stresses (SimulationOptions::mixed_integration_point):
+  /// per element, the material strains at the Gauss points (rows 0-2 Gamma, 3-5 K) where the
+  /// correction in use started, their derivative along it, and the resultants C (strain + lambda
+  /// rate) at the point lambda reached along it, which the beams' tangent takes.
+  struct MixedStresses {
+    bool active = false; ///< false: the tangent takes the current strains' resultants
+    double lambda = 0;   ///< the fraction of the correction applied
+    std::vector<Eigen::Matrix<double, 6, 2>> strain, rate, resultants;
+  };
+  MixedStresses mixed_;
+  /// Starts the mixed stresses of a correction `delta` (over the free equations) from the
+  /// current state (lambda 0); from_converged: delta was solved with the converged state's
+  /// tangent (attempt()), whose linear model the strains then follow.
+  void start_mixed_stresses(const Eigen::VectorXd& delta, bool from_converged);
   std::unique_ptr<IterationGraph> graph_; ///< last: built on the members above
   int analysed_pattern_ = -1;             ///< pattern version the solver analysed
 

@@ -80,7 +80,7 @@ sed -e 's/^n_warp = .*/n_warp = 3/; s/^n_weft = .*/n_weft = 3/' \
 grep -q '^type = "surface"' surface.toml || { echo "FAIL surface: the deck has no surface contact"; fail=1; }
 restart_case surface surface.toml 4
 
-# 4. A 3 x 3 picture frame of yarns so wide that neighbouring ones lock at 15.9 degrees (row 119),
+# 4. A 3 x 3 picture frame of yarns so wide that neighbouring ones lock near 16 degrees (row 119),
 # stopped after increment 140: the restart reports the locking the first part found.
 sed -e 's/^n_warp = .*/n_warp = 3/; s/^n_weft = .*/n_weft = 3/' \
   -e 's/^length_warp = .*/length_warp = 13.63635e-3/; s/^length_weft = .*/length_weft = 13.63635e-3/' \
@@ -88,9 +88,18 @@ sed -e 's/^n_warp = .*/n_warp = 3/; s/^n_weft = .*/n_weft = 3/' \
   -e 's/^elements_per_spacing = .*/elements_per_spacing = 2/' \
   "$repo/examples/picture-frame.toml" > frame.toml
 restart_case frame frame.toml 140
-for log in frame-straight.log frame-restart.log frame-inplace.log; do
-  grep -q "neighbouring parallel yarns first touched at a frame angle of 15.90 degrees" "$log" ||
-    { echo "FAIL frame: $log does not report the locking at 15.90 degrees"; cat "$log"; fail=1; }
+# The straight run finds the locking near 16 degrees (the increments' path sets the last digits);
+# the restarted runs report the same angle.
+locking=$(grep -o "first touched at a frame angle of [0-9.]* degrees" frame-straight.log |
+  grep -o "[0-9.]* degrees")
+case "$locking" in
+  15.[5-9]*" degrees" | 16.[0-4]*" degrees") ;;
+  *) echo "FAIL frame: the straight run reports no locking near 16 degrees ('$locking')"
+     cat frame-straight.log; fail=1 ;;
+esac
+for log in frame-restart.log frame-inplace.log; do
+  grep -q "neighbouring parallel yarns first touched at a frame angle of $locking" "$log" ||
+    { echo "FAIL frame: $log does not report the locking at $locking"; cat "$log"; fail=1; }
 done
 
 # 5. The explicit flying beam over 4 s (2000 increments, output every 50): stopped inside the

@@ -107,6 +107,93 @@ TEST(BeamElement, ResidualIsTheGradientOfTheStrainEnergy) {
   }
 }
 
+/// A random nodal increment: translations and Rodrigues increments of order 0.1.
+BeamNodalValues random_direction(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  BeamNodalValues d;
+  for (int i = 0; i < 3; ++i) {
+    d.x.col(i) = 0.1 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    d.alpha.col(i) = 0.1 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+  }
+  return d;
+}
+
+BeamNodalValues along(const BeamNodalValues& v, const BeamNodalValues& d, double h) {
+  return {v.x + h * d.x, v.alpha + h * d.alpha};
+}
+
+TEST(BeamElement, LinearisedStrainsAreTheStrainsDerivativeAlongTheIncrement) {
+  // beam_strains' rate is B d, the mixed integration point Newton's strain increment.
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 20; ++trial) {
+    const RandomState s = random_state(rng, trial < 10 ? 0.5 : 2.0);
+    const BeamNodalValues d = random_direction(rng);
+    Eigen::Matrix<double, 6, 2> strain, rate, plus, minus, unused;
+    beam_strains(s.ref, s.history, s.values, d, strain, rate);
+    const double h = 1e-6;
+    beam_strains(s.ref, s.history, along(s.values, d, h), d, plus, unused);
+    beam_strains(s.ref, s.history, along(s.values, d, -h), d, minus, unused);
+    const Eigen::Matrix<double, 6, 2> rate_fd = (plus - minus) / (2 * h);
+    EXPECT_LT((rate - rate_fd).norm() / rate_fd.norm(), 1e-8) << "trial " << trial;
+    // The strains are those of the section resultants.
+    const Eigen::Matrix<double, 6, 2> resultants =
+        beam_section_resultants(s.ref, s.history, s.values);
+    EXPECT_LT((beam_resultants_of_strains(s.ref, strain) - resultants).norm() / resultants.norm(),
+              1e-13)
+        << "trial " << trial;
+  }
+}
+
+TEST(BeamElement, MixedTangentTakesTheGivenResultantsInItsStressTerms) {
+  // K(sigma) = sum_g W (B^T C B + G(sigma)), G(sigma) the Hessian of sum_g W sigma_g . eps_g(u)
+  // at fixed sigma. So K(sigma) - K equals the Hessian of phi(u) = sum_g W (sigma_g - s_g) .
+  // eps_g(u), s the current strains' resultants; its gradient is (B^T (sigma - s))_j, from
+  // beam_strains' rate along each DOF, and its Hessian is taken by central differences.
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 20; ++trial) {
+    const RandomState s = random_state(rng, trial < 10 ? 0.5 : 2.0);
+    ElementVector f, f_mixed;
+    ElementMatrix K, K_same, K_mixed;
+    beam_internal_force(s.ref, s.history, s.values, f, &K);
+    const Eigen::Matrix<double, 6, 2> current = beam_section_resultants(s.ref, s.history, s.values);
+    beam_internal_force(s.ref, s.history, s.values, f_mixed, &K_same, &current);
+    EXPECT_LT((K_same - K).norm() / K.norm(), 1e-13) << "trial " << trial;
+    // Resultants far from the current ones (forces of order EA 0.1, moments of order EI).
+    const Eigen::Matrix<double, 6, 2> sigma =
+        current + Eigen::Matrix<double, 6, 2>::Random().cwiseProduct(
+                      (Eigen::Matrix<double, 6, 2>() << 3e2, 3e2, 3e2, 3e2, 1e3, 1e3, 2.0, 2.0, 2.0,
+                       2.0, 2.0, 2.0)
+                          .finished());
+    beam_internal_force(s.ref, s.history, s.values, f_mixed, &K_mixed, &sigma);
+    EXPECT_EQ(f_mixed, f) << "the force is the displacement-based one";
+    const auto gradient_phi = [&](const BeamNodalValues& v) {
+      ElementVector grad;
+      for (int j = 0; j < 18; ++j) {
+        BeamNodalValues unit{Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero()};
+        if (j % 6 < 3)
+          unit.x(j % 6, j / 6) = 1.0;
+        else
+          unit.alpha(j % 6 - 3, j / 6) = 1.0;
+        Eigen::Matrix<double, 6, 2> strain, rate;
+        beam_strains(s.ref, s.history, v, unit, strain, rate);
+        grad(j) = s.ref.weight(0) * (sigma.col(0) - current.col(0)).dot(rate.col(0)) +
+                  s.ref.weight(1) * (sigma.col(1) - current.col(1)).dot(rate.col(1));
+      }
+      return grad;
+    };
+    ElementMatrix G_fd;
+    const double h = 1e-6;
+    for (int j = 0; j < 18; ++j)
+      G_fd.col(j) =
+          (gradient_phi(perturbed(s.values, j, h)) - gradient_phi(perturbed(s.values, j, -h))) /
+          (2 * h);
+    const ElementMatrix G = K_mixed - K;
+    EXPECT_LT((G - G_fd).norm() / G_fd.norm(), 1e-6) << "trial " << trial;
+    EXPECT_GT(G.norm(), 1e-3 * K.norm()) << "the stress terms must matter in this test";
+    EXPECT_LT((K_mixed - K_mixed.transpose()).norm() / K_mixed.norm(), 1e-12);
+  }
+}
+
 TEST(BeamElement, RigidMotionOfACurvedBeamGivesNoInternalForce) {
   const Eigen::Matrix3d X = curved_nodes();
   const BeamReference ref = make_beam_reference(X, Eigen::Vector3d(0, 1, 0), test_section());

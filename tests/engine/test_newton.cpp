@@ -106,6 +106,97 @@ TEST(Newton, AModelWithoutContactTakesFullNewtonSteps) {
   EXPECT_TRUE((damped.state().x.array() == undamped.state().x.array()).all());
 }
 
+/// A cantilever of length 1 m and the given length / radius (circular section, EI = 1 N m^2,
+/// EA = 4 (L / r)^2 EI, GA = 0.35 EA), 16 elements, rolled into a full circle by a dead end
+/// moment 2 pi EI / L in the given number of increments (examples/rollup.toml).
+Model rollup_circle(double slenderness, int increments) {
+  const double EA = 4 * slenderness * slenderness;
+  const std::string deck = fmt::format(R"(
+title = "roll-up"
+[[sections]]
+name = "rod"
+EA = {0:.17g}
+GA = {1:.17g}
+EI = 1.0
+GJ = 0.77
+[[lines]]
+name = "rod"
+from = [0.0, 0.0, 0.0]
+to = [1.0, 0.0, 0.0]
+elements = 16
+section = "rod"
+reference_vector = [0.0, 1.0, 0.0]
+[[constraints]]
+node_set = "rod.start"
+dofs = "all"
+[[loads]]
+node_set = "rod.end"
+moment = [0.0, 0.0, 6.283185307179586]
+table = [[0.0, 0.0], [1.0, 1.0]]
+[[steps]]
+type = "static"
+end_time = 1.0
+dt = {2:.17g}
+dt_max = {2:.17g}
+max_iterations = 30
+)",
+                                       EA, 0.35 * EA, 1.0 / increments);
+  return read_deck_string(deck, "rollup.toml");
+}
+
+TEST(Newton, SlenderRodsRollUpInFewIterationsWithTheMixedStresses) {
+  // Issue 14: rods up to L / r = 1e5 rolled into a circle in 20 to 100 increments with at most 8
+  // iterations per increment and no halving. The displacement-based Newton's tangent carries the
+  // axial force of the strains at the iterate: a bending correction lengthens the chord by
+  // (theta^2 / 2) h, and EA times that, 1e10 times the bending stiffness, swamps the next
+  // tangent's stress terms (docs/performance.md: 30 increments, 366 iterations, 10 halvings in
+  // 20). The mixed integration point Newton's tangent takes the resultants of the strains
+  // linearised along the correction instead (formulation.md "Solution").
+  struct Counter : SimulationObserver {
+    int failed = 0, increments = 0;
+    void on_attempt_failed(const Simulation&, double, double, const std::string&) override {
+      ++failed;
+    }
+    void on_increment(const Simulation&, const IncrementReport& r) override {
+      ++increments;
+      if (std::getenv("YARNSIM_DEBUG")) {
+        for (double v : r.residual_history)
+          std::printf(" %.2e", v);
+        std::printf("\n");
+      }
+    }
+  };
+  for (const double slenderness : {2e4, 1e5})
+    for (const int increments : {20, 100}) {
+      const Model m = rollup_circle(slenderness, increments);
+      Simulation sim(m);
+      Counter counter;
+      sim.run(&counter);
+      const double per_increment = double(sim.total_iterations()) / counter.increments;
+      std::printf("L / r = %g, %d increments: %d increments, %d iterations (%.2f per increment), "
+                  "%d halvings\n",
+                  slenderness, increments, counter.increments, sim.total_iterations(),
+                  per_increment, counter.failed);
+      EXPECT_EQ(counter.failed, 0);
+      EXPECT_EQ(counter.increments, increments);
+      EXPECT_LE(per_increment, 8.0);
+      // Exact: the tip returns to the clamp.
+      EXPECT_LT(sim.state().x.col(sim.state().n_nodes() - 1).norm(), 1e-8);
+    }
+  // The displacement-based Newton on the same rod halves increments.
+  SimulationOptions displacement;
+  displacement.mixed_integration_point = false;
+  const Model m = rollup_circle(1e5, 20);
+  Simulation sim(m, displacement);
+  Counter counter;
+  sim.run(&counter);
+  std::printf("displacement-based, L / r = 1e5, 20 increments: %d increments, %d iterations, %d "
+              "halvings\n",
+              counter.increments, sim.total_iterations(), counter.failed);
+  EXPECT_GT(counter.failed, 0);
+  EXPECT_GT(double(sim.total_iterations()) / counter.increments, 8.0);
+}
+
 TEST(Newton, ThePatternDropsCouplingsNoCandidateNeeds) {
   // Yarns touching from the start (gap = 0): the first increments' attempts meet candidates that
   // the converged state does not keep. Before, the pattern kept every coupling ever met (its
