@@ -240,7 +240,8 @@ void Assembler::add_node_block(int node, int row_offset, int col_offset,
 }
 
 bool Assembler::ensure_couplings(std::vector<ContactCoupling> groups) {
-  std::sort(groups.begin(), groups.end());
+  if (!std::is_sorted(groups.begin(), groups.end()))
+    std::sort(groups.begin(), groups.end());
   groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
   std::vector<ContactCoupling> unlisted;
   std::set_difference(groups.begin(), groups.end(), couplings_.begin(), couplings_.end(),
@@ -282,32 +283,37 @@ bool Assembler::set_couplings(std::vector<ContactCoupling> groups) {
   return true;
 }
 
-void Assembler::add_translation_block(const std::array<int, 6>& nodes,
-                                      const Eigen::Matrix<double, 18, 18>& block) {
-  double* values = matrix_.valuePtr();
-  for (int a = 0; a < 6; ++a)
-    for (int i = 0; i < 3; ++i) {
-      const int row = equation_[6 * nodes[a] + i];
-      if (row < 0)
-        continue;
-      for (int b = 0; b < 6; ++b)
-        for (int j = 0; j < 3; ++j) {
-          const int col = equation_[6 * nodes[b] + j];
-          if (col < 0)
+void Assembler::translation_block_slots(const std::array<int, 6>& nodes, int* slots) const {
+  const int* inner = matrix_.innerIndexPtr();
+  for (int b = 0; b < 6; ++b)
+    for (int j = 0; j < 3; ++j) {
+      const int col = equation_[6 * nodes[b] + j];
+      const int column_end = col >= 0 ? matrix_.outerIndexPtr()[col + 1] : 0;
+      for (int a = 0; a < 6; ++a) {
+        // A node's free DOFs have ascending equations, held together in every column that holds
+        // one of them (the pattern couples nodes, not DOFs): one search finds the first, the
+        // others follow it.
+        int s = -1;
+        for (int i = 0; i < 3; ++i) {
+          const int row = equation_[6 * nodes[a] + i];
+          if (row < 0 || col < 0) {
+            slots[18 * (3 * a + i) + 3 * b + j] = -1;
             continue;
-          const int s = slot_of(matrix_, row, col);
+          }
+          s = s >= 0 && s + 1 < column_end && inner[s + 1] == row ? s + 1
+                                                                  : slot_of(matrix_, row, col);
           if (s < 0)
             throw std::logic_error(fmt::format(
                 "contact pair of nodes {} assembled without its coupling in the matrix pattern "
                 "(ensure_couplings was not called with it)",
                 fmt::join(nodes, ", ")));
-          values[s] += block(3 * a + i, 3 * b + j);
+          slots[18 * (3 * a + i) + 3 * b + j] = s;
         }
+      }
     }
 }
 
-void Assembler::add_surface_pair_block(const std::array<int, 4>& nodes,
-                                       const Eigen::Matrix<double, 24, 24>& block, double scale) {
+void Assembler::surface_pair_block_slots(const std::array<int, 4>& nodes, int* slots) const {
   // Global DOF of kernel index k: surface k / 12, then x_first, x_last, alpha_first, alpha_last.
   std::array<int, 24> dof;
   for (int k = 0; k < 24; ++k) {
@@ -315,22 +321,17 @@ void Assembler::add_surface_pair_block(const std::array<int, 4>& nodes,
     const int node = nodes[2 * X + (r % 6) / 3];
     dof[k] = 6 * node + (r < 6 ? 0 : 3) + r % 3;
   }
-  double* values = matrix_.valuePtr();
   for (int j = 0; j < 24; ++j) {
     const int col = equation_[dof[j]];
-    if (col < 0)
-      continue;
     for (int i = 0; i < 24; ++i) {
       const int row = equation_[dof[i]];
-      if (row < 0)
-        continue;
-      const int s = slot_of(matrix_, row, col);
-      if (s < 0)
+      const int s = row >= 0 && col >= 0 ? slot_of(matrix_, row, col) : -1;
+      if (s < 0 && row >= 0 && col >= 0)
         throw std::logic_error(fmt::format(
             "surface contact pair of nodes {} assembled without its coupling in the matrix "
             "pattern (ensure_couplings was not called with it, with rotations)",
             fmt::join(nodes, ", ")));
-      values[s] += scale * block(i, j);
+      slots[24 * j + i] = s;
     }
   }
 }

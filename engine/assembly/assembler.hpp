@@ -87,19 +87,18 @@ public:
   /// Counts pattern rebuilds; a solver analyses again when it changes.
   int pattern_version() const { return pattern_version_; }
 
-  /// Adds a contact pair's 18 x 18 tangent over the translations of its 6 nodes. The pattern must
-  /// hold the coupling (ensure_couplings); throws std::logic_error naming the nodes if it does
-  /// not.
-  void add_translation_block(const std::array<int, 6>& nodes,
-                             const Eigen::Matrix<double, 18, 18>& block);
+  /// Where a contact pair's 18 x 18 tangent over the translations of its 6 nodes goes: slots[18 r
+  /// + c] is the index into matrix().valuePtr() of block entry (r, c), r = 3 a + i for node a's
+  /// component i, or -1 where either DOF is constrained. The pattern must hold the coupling
+  /// (ensure_couplings); throws std::logic_error naming the nodes if it does not. Reads the
+  /// pattern only: pairs may be looked up in parallel and added in their order.
+  void translation_block_slots(const std::array<int, 6>& nodes, int* slots) const;
 
-  /// Adds a surface contact pair's 24 x 24 tangent over the translations and rotations of its
-  /// four end nodes, nodes = (A first, A last, B first, B last), in the kernel's order per surface:
-  /// x_first, x_last, alpha_first, alpha_last (contact/surface_contact.hpp). The pattern must hold
-  /// the coupling with rotations (ensure_couplings); throws std::logic_error naming the nodes if
-  /// it does not. The block is multiplied by scale.
-  void add_surface_pair_block(const std::array<int, 4>& nodes,
-                              const Eigen::Matrix<double, 24, 24>& block, double scale = 1.0);
+  /// The same for a surface contact pair's 24 x 24 tangent over the translations and rotations of
+  /// its four end nodes, nodes = (A first, A last, B first, B last), in the kernel's order per
+  /// surface: x_first, x_last, alpha_first, alpha_last (contact/surface_contact.hpp); slots[24 c
+  /// + r] for block entry (r, c). The pattern must hold the coupling with rotations.
+  void surface_pair_block_slots(const std::array<int, 4>& nodes, int* slots) const;
 
 private:
   /// The pattern of the beams and couplings_, matrix() zero; with keep_values the entries of

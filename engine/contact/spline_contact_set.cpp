@@ -379,12 +379,32 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   if (want_tangent && !tangents_computed_)
     throw std::logic_error("SplineContactSet::assemble: tangents asked for after a projection "
                            "without tangents");
+  // The tangents' slots in the matrix are looked up in parallel (324 searches a pair: most of
+  // the assembly's time), then every pair is added in its order: the same sums on any thread
+  // count.
+  assembly_items_.clear();
+  for (std::size_t w = 0; w < work_.size(); ++w)
+    if (work_[w].result.active)
+      assembly_items_.push_back(static_cast<int>(w));
+  constexpr int kBlock = 18 * 18;
+  if (want_tangent) {
+    assembly_slots_.resize(kBlock * assembly_items_.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, assembly_items_.size(), 16),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                          const Work& item = work_[assembly_items_[k]];
+                          assembler.translation_block_slots(
+                              nodes_of(*definitions_[item.definition], item.pair),
+                              assembly_slots_.data() + kBlock * k);
+                        }
+                      });
+  }
+  double* values = assembler.matrix().valuePtr();
   std::size_t next_line = 0; // line_items_ ascend with the work items
-  for (const Work& item : work_) {
-    if (!item.result.active)
-      continue;
+  for (std::size_t k = 0; k < assembly_items_.size(); ++k) {
+    const std::size_t w = static_cast<std::size_t>(assembly_items_[k]);
+    const Work& item = work_[w];
     const std::array<int, 6> n = nodes_of(*definitions_[item.definition], item.pair);
-    const std::size_t w = static_cast<std::size_t>(&item - work_.data());
     const contact::SplineFrictionResult* f =
         any_friction_ && friction_[w].active ? &friction_[w] : nullptr;
     while (next_line < line_items_.size() && line_items_[next_line] < static_cast<int>(w))
@@ -401,18 +421,21 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
       if (line)
         residual.segment<3>(6 * n[a]) += line->residual.segment<3>(3 * a);
     }
-    if (want_tangent) {
-      if (f || line) {
-        Eigen::Matrix<double, 18, 18> block = item.result.tangent;
+    if (!want_tangent)
+      continue;
+    const int* slots = assembly_slots_.data() + kBlock * k;
+    for (int r = 0; r < 18; ++r)
+      for (int c = 0; c < 18; ++c) {
+        const int slot = slots[18 * r + c];
+        if (slot < 0)
+          continue;
+        double v = item.result.tangent(r, c);
         if (f)
-          block += f->tangent;
+          v += f->tangent(r, c);
         if (line)
-          block += line->tangent;
-        assembler.add_translation_block(n, block);
-      } else {
-        assembler.add_translation_block(n, item.result.tangent);
+          v += line->tangent(r, c);
+        values[slot] += v;
       }
-    }
   }
 }
 

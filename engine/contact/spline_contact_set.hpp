@@ -183,6 +183,9 @@ private:
   double dissipated_ = 0; ///< J, by friction over the committed increments
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;
+  /// assemble()'s buffers, kept for their capacity: the active work items, and the slots of
+  /// their tangents in the matrix (324 per item, Assembler::translation_block_slots).
+  mutable std::vector<int> assembly_items_, assembly_slots_;
   /// Warm starts of the last converged increment's candidates, sorted by key.
   std::vector<Snapshot::Warm> committed_;
   std::vector<Snapshot::Warm> next_committed_; ///< commit()'s buffer, kept for its capacity

@@ -458,20 +458,39 @@ std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
 
 void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
                                  bool want_tangent) const {
-  for (const Work& item : work_) {
-    if (!item.result.active)
-      continue;
+  // The tangents' slots in the matrix are looked up in parallel (576 searches a pair), then
+  // every pair is added in its order: the same sums on any thread count.
+  assembly_items_.clear();
+  for (std::size_t k = 0; k < work_.size(); ++k)
+    if (work_[k].result.active)
+      assembly_items_.push_back(static_cast<int>(k));
+  constexpr int kBlock = 24 * 24;
+  if (want_tangent) {
+    assembly_slots_.resize(kBlock * assembly_items_.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, assembly_items_.size(), 8),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                          const Work& item = work_[assembly_items_[i]];
+                          assembler.surface_pair_block_slots(
+                              nodes_of(*definitions_[item.definition], item.pair),
+                              assembly_slots_.data() + kBlock * i);
+                        }
+                      });
+  }
+  double* values = assembler.matrix().valuePtr();
+  for (std::size_t i = 0; i < assembly_items_.size(); ++i) {
+    const std::size_t k = static_cast<std::size_t>(assembly_items_[i]);
+    const Work& item = work_[k];
     const std::array<int, 4> n = nodes_of(*definitions_[item.definition], item.pair);
     // Kernel order per surface X (0: A, 1: B): x_first, x_last, alpha_first, alpha_last.
     const double w = item.factor;
     for (int X = 0; X < 2; ++X)
-      for (int k = 0; k < 2; ++k) {
-        const int node = n[2 * X + k];
-        residual.segment<3>(6 * node) += w * item.result.residual.segment<3>(12 * X + 3 * k);
+      for (int j = 0; j < 2; ++j) {
+        const int node = n[2 * X + j];
+        residual.segment<3>(6 * node) += w * item.result.residual.segment<3>(12 * X + 3 * j);
         residual.segment<3>(6 * node + 3) +=
-            w * item.result.residual.segment<3>(12 * X + 6 + 3 * k);
+            w * item.result.residual.segment<3>(12 * X + 6 + 3 * j);
       }
-    const std::size_t k = static_cast<std::size_t>(&item - work_.data());
     const contact::SurfaceFrictionResult* f =
         any_friction_ && friction_[k].active ? &friction_[k] : nullptr;
     if (f)
@@ -481,14 +500,17 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
           residual.segment<3>(6 * node) += w * f->residual.segment<3>(12 * X + 3 * j);
           residual.segment<3>(6 * node + 3) += w * f->residual.segment<3>(12 * X + 6 + 3 * j);
         }
-    if (want_tangent) {
-      if (f) {
-        const Eigen::Matrix<double, 24, 24> block = item.result.tangent + f->tangent;
-        assembler.add_surface_pair_block(n, block, w);
-      } else {
-        assembler.add_surface_pair_block(n, item.result.tangent, w);
+    if (!want_tangent)
+      continue;
+    const int* slots = assembly_slots_.data() + kBlock * i;
+    for (int c = 0; c < 24; ++c)
+      for (int r = 0; r < 24; ++r) {
+        const int slot = slots[24 * c + r];
+        if (slot < 0)
+          continue;
+        values[slot] +=
+            f ? w * (item.result.tangent(r, c) + f->tangent(r, c)) : w * item.result.tangent(r, c);
       }
-    }
   }
 }
 

@@ -128,6 +128,9 @@ private:
   std::vector<contact::SuperEllipse> sections_; ///< per surface
   std::vector<std::unique_ptr<Definition>> definitions_;
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
+  /// assemble()'s buffers, kept for their capacity: the active work items, and the slots of
+  /// their tangents in the matrix (576 per item, Assembler::surface_pair_block_slots).
+  mutable std::vector<int> assembly_items_, assembly_slots_;
   /// Indices into work_ sorted by (definition, second, first); rebuilt with the work list.
   std::vector<std::size_t> by_second_;
   /// Warm starts of the last converged increment's candidates, sorted by key.

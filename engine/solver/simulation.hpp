@@ -276,8 +276,10 @@ private:
     Eigen::VectorXd* residual = nullptr; ///< 6 n_nodes
     StiffnessDamping damping;
     bool want_tangent = true;
-    std::string veto;      ///< why the contact stage vetoes the configuration
-    ContactRates rates;    ///< contact damping's velocities (velocity null: none)
+    std::string veto;   ///< why the contact stage vetoes the configuration
+    ContactRates rates; ///< contact damping's velocities (velocity null: none)
+    /// The couplings the narrow phase's pairs need, sorted (Assembler::ensure_couplings).
+    std::vector<ContactCoupling> couplings;
     double ref_force = 0;  ///< largest nodal internal force, N
     double ref_moment = 0; ///< largest nodal internal moment, N m
   };

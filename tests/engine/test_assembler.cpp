@@ -53,21 +53,33 @@ TEST(Assembler, SplineCouplingsHoldTranslationsOnlyAndSurfaceCouplingsRotationsT
   EXPECT_FALSE(holds(assembler, 0, 3, 9, 4)); // rotation-rotation
   EXPECT_FALSE(assembler.ensure_couplings({ContactCoupling{{0, 1, 2, 7, 8, 9}, false}}));
 
-  // A spline pair's tangent goes in; a surface pair's between the same nodes needs rotations.
-  Eigen::Matrix<double, 18, 18> spline = Eigen::Matrix<double, 18, 18>::Ones();
-  EXPECT_NO_THROW(assembler.add_translation_block({0, 1, 2, 7, 8, 9}, spline));
-  Eigen::Matrix<double, 24, 24> surface = Eigen::Matrix<double, 24, 24>::Ones();
-  EXPECT_THROW(assembler.add_surface_pair_block({0, 2, 7, 9}, surface), std::logic_error);
+  // A spline pair's tangent has its slots, each entry its own, at its row and column; a surface
+  // pair's between the same nodes needs rotations.
+  std::array<int, 18 * 18> spline;
+  EXPECT_NO_THROW(assembler.translation_block_slots({0, 1, 2, 7, 8, 9}, spline.data()));
+  const std::array<int, 6> pair_nodes{0, 1, 2, 7, 8, 9};
+  const SparseMatrix& K = assembler.matrix();
+  for (int r = 0; r < 18; ++r)
+    for (int c = 0; c < 18; ++c) {
+      const int slot = spline[18 * r + c];
+      ASSERT_GE(slot, 0);
+      const int col = assembler.equation(6 * pair_nodes[c / 3] + c % 3);
+      EXPECT_GE(slot, K.outerIndexPtr()[col]);
+      EXPECT_LT(slot, K.outerIndexPtr()[col + 1]);
+      EXPECT_EQ(K.innerIndexPtr()[slot], assembler.equation(6 * pair_nodes[r / 3] + r % 3));
+    }
+  std::array<int, 24 * 24> surface;
+  EXPECT_THROW(assembler.surface_pair_block_slots({0, 2, 7, 9}, surface.data()), std::logic_error);
 
   // The translations present do not satisfy a surface coupling: it grows the pattern.
   EXPECT_TRUE(assembler.ensure_couplings({ContactCoupling{{0, 2, 7, 9, 9, 9}, true}}));
   EXPECT_TRUE(holds(assembler, 0, 3, 9, 4));
   EXPECT_TRUE(holds(assembler, 9, 5, 0, 1));
-  EXPECT_NO_THROW(assembler.add_surface_pair_block({0, 2, 7, 9}, surface));
+  EXPECT_NO_THROW(assembler.surface_pair_block_slots({0, 2, 7, 9}, surface.data()));
 
   // A pair never coupled is refused, with its nodes named.
   try {
-    assembler.add_translation_block({4, 5, 6, 11, 12, 13}, spline);
+    assembler.translation_block_slots({4, 5, 6, 11, 12, 13}, spline.data());
     FAIL() << "no exception";
   } catch (const std::logic_error& e) {
     EXPECT_NE(std::string(e.what()).find("4, 5, 6, 11, 12, 13"), std::string::npos) << e.what();
