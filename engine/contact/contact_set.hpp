@@ -64,6 +64,11 @@ struct ContactSummary {
   int twist_stick = 0;         ///< crossings with torsional friction whose twist sticks
   int twist_slip = 0;          ///< crossings with torsional friction whose twist slips
   double torque = 0;           ///< sum of the friction torques' magnitudes, N m
+  /// Active points of frictional contacts that carry no friction: those on a degenerate path of
+  /// the projection (spline: the point contact alone, `line_contact = false`, between nearly
+  /// parallel segments; surface: parallel axes, flat faces, ridges), where the kernels have no
+  /// sensitivity of the contact point (contact/friction.hpp, contact/surface_friction.hpp).
+  int frictionless = 0;
   /// Energy dissipated by friction from the start up to this evaluation (the completed
   /// increments' and this iterate's slips), J.
   double dissipation = 0;

@@ -98,6 +98,7 @@ ContactSummary ContactStage::summary() const {
     out.twist_stick += s.twist_stick;
     out.twist_slip += s.twist_slip;
     out.torque += s.torque;
+    out.frictionless += s.frictionless;
     out.dissipation += s.dissipation;
     out.min_gap = std::min(out.min_gap, s.min_gap);
     out.active_set = out.active_set * 0x9e3779b97f4a7c15ull + s.active_set;

@@ -770,6 +770,8 @@ void SplineContactSet::summarise() {
     summary_.max_force = std::max(summary_.max_force, r.force);
     summary_.potential += r.potential;
     summary_.total_force += r.force;
+    if (r.degenerate && definitions_[w.definition]->friction)
+      ++summary_.frictionless;
   }
   summary_.dissipation = dissipated_;
   if (!any_friction_)

@@ -362,6 +362,9 @@ void SurfaceContactSet::summarise() {
     summary_.max_force = std::max(summary_.max_force, w.factor * r.force);
     summary_.potential += w.factor * r.potential;
     summary_.total_force += w.factor * r.force;
+    if (r.degeneration != contact::SurfaceDegeneration::None &&
+        definitions_[w.definition]->friction)
+      ++summary_.frictionless;
   }
   summary_.active = static_cast<int>(std::lround(active_share));
   summary_.dissipation = dissipated_;

@@ -957,6 +957,18 @@ void Simulation::run(SimulationObserver* observer) {
         continue;
       }
       commit(step, h, t + h);
+      if (contact_ && !frictionless_reported_ && observer && contact_->summary().frictionless > 0) {
+        frictionless_reported_ = true;
+        observer->on_notice(
+            *this,
+            fmt::format("step {}, t = {:.6g} s: {} active contact point(s) of a contact with "
+                        "friction lie on a degenerate path of the projection (the point contact "
+                        "alone between nearly parallel segments, `line_contact = false`; or, "
+                        "with surface contact, parallel axes, flat faces or ridges) and carry "
+                        "no friction there; `line_contact = true` gives the spline contact "
+                        "friction at every point (said once)",
+                        s + 1, t + h, contact_->summary().frictionless));
+      }
       if (report.at_floor && !floor_reported_ && observer) {
         floor_reported_ = true;
         observer->on_notice(

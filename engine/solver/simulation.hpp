@@ -260,8 +260,9 @@ private:
   ExplicitStatus explicit_status_;
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
   bool floor_reported_ = false;                     ///< the round-off floor notice was given
-  Eigen::VectorXd damping_velocity_;                ///< 6 n_nodes, stiffness damping's velocities
-  Eigen::Matrix3Xd contact_velocity_; ///< 3 x n_nodes, m/s: the iterate's, for contact damping
+  bool frictionless_reported_ = false; ///< the notice of points without friction was given
+  Eigen::VectorXd damping_velocity_;   ///< 6 n_nodes, stiffness damping's velocities
+  Eigen::Matrix3Xd contact_velocity_;  ///< 3 x n_nodes, m/s: the iterate's, for contact damping
   /// 3 x n_nodes, rad/s: the iterate's spatial angular velocities, for surface contact damping.
   Eigen::Matrix3Xd contact_angular_velocity_;
   Eigen::VectorXd rhs_;             ///< minus the residual over the free equations

@@ -7,12 +7,14 @@
 // segment boundaries (history handed over between segment pairs); Newton's rate in slip.
 #include "beam_models.hpp"
 #include "drag_recorder.hpp"
+#include "engine/input/read_deck.hpp"
 #include "engine/solver/simulation.hpp"
 
 #include <cmath>
 #include <cstdio>
 #include <gtest/gtest.h>
 #include <numbers>
+#include <string>
 #include <vector>
 
 namespace yarnsim {
@@ -354,6 +356,99 @@ TEST(Friction, ExplicitDragSlipsAtMuFnAndItsEnergyBalanceHoldsTheDissipation) {
   // Dragging 5 mm at mu N dissipates about 3 mJ.
   EXPECT_NEAR(rec.friction, mu * kNormal * v * (t_end - 1.0), 0.02 * mu * kNormal * v);
   EXPECT_LT(rec.worst_balance, 1e-3 * rec.friction);
+}
+
+} // namespace
+} // namespace yarnsim
+
+namespace yarnsim {
+namespace {
+
+TEST(Friction, PointsThatCarryNoFrictionAreSaid) {
+  // A rod pressed on a parallel one with the point contact alone (line_contact = false): every
+  // active point lies on its near-parallel path, where the kernel has no sensitivity of the
+  // contact point and no friction. The run says so once instead of running frictionless
+  // silently (ContactSummary::frictionless); with the all-angle contact there is nothing to say.
+  const auto deck = [](bool line_contact) {
+    return std::string(R"(
+title = "parallel rods"
+[[sections]]
+name = "rod"
+EA = 1e6
+GA = 1e6
+EI = 1.0
+GJ = 1.0
+[[lines]]
+name = "base"
+from = [0.0, 0.0, 0.0]
+to = [1.0, 0.0, 0.0]
+elements = 4
+section = "rod"
+reference_vector = [0.0, 1.0, 0.0]
+[[lines]]
+name = "top"
+from = [0.0, 0.0, 0.0201]
+to = [1.0, 0.0, 0.0201]
+elements = 4
+section = "rod"
+reference_vector = [0.0, 1.0, 0.0]
+[[splines]]
+name = "base"
+node_set = "base"
+radius = 0.01
+[[splines]]
+name = "top"
+node_set = "top"
+radius = 0.01
+[[contacts]]
+name = "rods"
+type = "spline"
+between = [["base"], ["top"]]
+penalty = 1e5
+friction = 0.3
+line_contact = )") +
+           (line_contact ? "true" : "false") + R"(
+[[constraints]]
+node_set = "base"
+dofs = "all"
+[[constraints]]
+node_set = "top"
+dofs = ["ux", "uy", "rx", "ry", "rz"]
+[[loads]]
+node_set = "top"
+force = [0.0, 0.0, -10.0]
+table = [[0.0, 0.0], [1.0, 1.0]]
+[[steps]]
+type = "static"
+end_time = 1.0
+dt = 0.25
+dt_max = 0.25
+)";
+  };
+  struct Notices : SimulationObserver {
+    std::vector<std::string> said;
+    void on_notice(const Simulation&, const std::string& what) override { said.push_back(what); }
+  };
+  for (const bool line_contact : {false, true}) {
+    const Model m = read_deck_string(deck(line_contact), "parallel.toml");
+    Simulation sim(m);
+    Notices notices;
+    sim.run(&notices);
+    ASSERT_GT(sim.contact()->summary().active, 0);
+    std::size_t frictionless = 0;
+    for (const std::string& s : notices.said)
+      if (s.find("carry no friction there") != std::string::npos)
+        ++frictionless;
+    if (line_contact) {
+      EXPECT_EQ(sim.contact()->summary().frictionless, 0);
+      EXPECT_EQ(frictionless, 0u);
+    } else {
+      EXPECT_GT(sim.contact()->summary().frictionless, 0);
+      EXPECT_EQ(frictionless, 1u) << "said once";
+      if (!notices.said.empty())
+        std::printf("%s\n", notices.said.front().c_str());
+    }
+  }
 }
 
 } // namespace
