@@ -17,6 +17,8 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <vector>
 
 namespace yarnsim {
@@ -86,6 +88,27 @@ struct ContactSummary {
 template <class Result>
 bool needs_coupling(const Result& r, double reach) {
   return r.active || (r.status == contact::ProjectionStatus::Converged && r.gap < reach);
+}
+
+/// The first step of a contact set's assembly: the indices of the active items of `work` (in
+/// their order) into `items` and, for a tangent, each one's `block` matrix slots into `slots`
+/// (slots_of(item, destination), an Assembler::*_block_slots lookup), found in parallel. The
+/// set then adds the pairs in their order: the same sums on any thread count.
+template <class Work, class SlotsOf>
+void find_active_slots(const std::vector<Work>& work, bool want_tangent, int block,
+                       std::vector<int>& items, std::vector<int>& slots, SlotsOf slots_of) {
+  items.clear();
+  for (std::size_t w = 0; w < work.size(); ++w)
+    if (work[w].result.active)
+      items.push_back(static_cast<int>(w));
+  if (!want_tangent)
+    return;
+  slots.resize(static_cast<std::size_t>(block) * items.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, items.size(), 8),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t k = range.begin(); k != range.end(); ++k)
+                        slots_of(work[items[k]], slots.data() + block * k);
+                    });
 }
 
 /// Folds an active pair (definition, first, second) into ContactSummary::active_set.

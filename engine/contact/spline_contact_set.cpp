@@ -379,26 +379,14 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   if (want_tangent && !tangents_computed_)
     throw std::logic_error("SplineContactSet::assemble: tangents asked for after a projection "
                            "without tangents");
-  // The tangents' slots in the matrix are looked up in parallel (324 searches a pair: most of
-  // the assembly's time), then every pair is added in its order: the same sums on any thread
-  // count.
-  assembly_items_.clear();
-  for (std::size_t w = 0; w < work_.size(); ++w)
-    if (work_[w].result.active)
-      assembly_items_.push_back(static_cast<int>(w));
+  // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
+  // its order (find_active_slots).
   constexpr int kBlock = 18 * 18;
-  if (want_tangent) {
-    assembly_slots_.resize(kBlock * assembly_items_.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, assembly_items_.size(), 16),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t k = range.begin(); k != range.end(); ++k) {
-                          const Work& item = work_[assembly_items_[k]];
-                          assembler.translation_block_slots(
-                              nodes_of(*definitions_[item.definition], item.pair),
-                              assembly_slots_.data() + kBlock * k);
-                        }
-                      });
-  }
+  find_active_slots(work_, want_tangent, kBlock, assembly_items_, assembly_slots_,
+                    [&](const Work& item, int* slots) {
+                      assembler.translation_block_slots(
+                          nodes_of(*definitions_[item.definition], item.pair), slots);
+                    });
   double* values = assembler.matrix().valuePtr();
   std::size_t next_line = 0; // line_items_ ascend with the work items
   for (std::size_t k = 0; k < assembly_items_.size(); ++k) {

@@ -461,25 +461,14 @@ std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
 
 void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
                                  bool want_tangent) const {
-  // The tangents' slots in the matrix are looked up in parallel (576 searches a pair), then
-  // every pair is added in its order: the same sums on any thread count.
-  assembly_items_.clear();
-  for (std::size_t k = 0; k < work_.size(); ++k)
-    if (work_[k].result.active)
-      assembly_items_.push_back(static_cast<int>(k));
+  // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
+  // its order (find_active_slots).
   constexpr int kBlock = 24 * 24;
-  if (want_tangent) {
-    assembly_slots_.resize(kBlock * assembly_items_.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, assembly_items_.size(), 8),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                          const Work& item = work_[assembly_items_[i]];
-                          assembler.surface_pair_block_slots(
-                              nodes_of(*definitions_[item.definition], item.pair),
-                              assembly_slots_.data() + kBlock * i);
-                        }
-                      });
-  }
+  find_active_slots(work_, want_tangent, kBlock, assembly_items_, assembly_slots_,
+                    [&](const Work& item, int* slots) {
+                      assembler.surface_pair_block_slots(
+                          nodes_of(*definitions_[item.definition], item.pair), slots);
+                    });
   double* values = assembler.matrix().valuePtr();
   for (std::size_t i = 0; i < assembly_items_.size(); ++i) {
     const std::size_t k = static_cast<std::size_t>(assembly_items_[i]);

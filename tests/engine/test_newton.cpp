@@ -18,23 +18,26 @@
 namespace yarnsim {
 namespace {
 
-/// A cantilever of length 1 m and length / radius 2e4 (circular section, EI = 1 N m^2, so
-/// EA = 4 / r^2 = 1.6e9 N), rolled up by a dead end moment 2 pi EI / L over 10 increments of
-/// lambda = 0.05 (half way to the circle), with the given tolerance.
-Model slender_rollup(double tolerance) {
-  const std::string deck = fmt::format(R"(
-title = "slender roll-up"
+/// A cantilever of length 1 m along x, clamped at x = 0, with the given section stiffnesses (N,
+/// N m^2; EI = 1 N m^2), rolled up by a dead end moment 2 pi EI / L about z ramped over t in [0,
+/// 1] (a circle at t = 1; examples/rollup.toml), in steps of dt to end_time; `extra` goes into
+/// [[steps]].
+Model rollup_deck(double EA, double GA, double GJ, int elements, double end_time, double dt,
+                  int max_iterations, const std::string& extra = "") {
+  const std::string deck =
+      fmt::format(R"(
+title = "roll-up"
 [[sections]]
 name = "rod"
-EA = 1.6e9
-GA = 5.5e8
+EA = {:.17g}
+GA = {:.17g}
 EI = 1.0
-GJ = 0.77
+GJ = {:.17g}
 [[lines]]
 name = "rod"
 from = [0.0, 0.0, 0.0]
 to = [1.0, 0.0, 0.0]
-elements = 40
+elements = {}
 section = "rod"
 reference_vector = [0.0, 1.0, 0.0]
 [[constraints]]
@@ -46,14 +49,21 @@ moment = [0.0, 0.0, 6.283185307179586]
 table = [[0.0, 0.0], [1.0, 1.0]]
 [[steps]]
 type = "static"
-end_time = 0.5
-dt = 0.05
-dt_max = 0.05
-max_iterations = 40
-tolerance = {{ force = {0}, increment = {0} }}
+end_time = {:.17g}
+dt = {:.17g}
+dt_max = {:.17g}
+max_iterations = {}
+{}
 )",
-                                       tolerance);
-  return read_deck_string(deck, "slender-rollup.toml");
+                  EA, GA, GJ, elements, end_time, dt, dt, max_iterations, extra);
+  return read_deck_string(deck, "rollup.toml");
+}
+
+/// Length / radius 2e4 (circular section, EA = 4 / r^2 = 1.6e9 N), 40 elements, 10 increments of
+/// lambda = 0.05 (half way to the circle), with the given tolerance.
+Model slender_rollup(double tolerance) {
+  return rollup_deck(1.6e9, 5.5e8, 0.77, 40, 0.5, 0.05, 40,
+                     fmt::format("tolerance = {{ force = {0}, increment = {0} }}", tolerance));
 }
 
 struct Notices : SimulationObserver {
@@ -106,42 +116,11 @@ TEST(Newton, AModelWithoutContactTakesFullNewtonSteps) {
   EXPECT_TRUE((damped.state().x.array() == undamped.state().x.array()).all());
 }
 
-/// A cantilever of length 1 m and the given length / radius (circular section, EI = 1 N m^2,
-/// EA = 4 (L / r)^2 EI, GA = 0.35 EA), 16 elements, rolled into a full circle by a dead end
-/// moment 2 pi EI / L in the given number of increments (examples/rollup.toml).
+/// The given length / radius (EA = 4 (L / r)^2 EI, GA = 0.35 EA), 16 elements, rolled into a
+/// full circle in the given number of increments.
 Model rollup_circle(double slenderness, int increments) {
   const double EA = 4 * slenderness * slenderness;
-  const std::string deck = fmt::format(R"(
-title = "roll-up"
-[[sections]]
-name = "rod"
-EA = {0:.17g}
-GA = {1:.17g}
-EI = 1.0
-GJ = 0.77
-[[lines]]
-name = "rod"
-from = [0.0, 0.0, 0.0]
-to = [1.0, 0.0, 0.0]
-elements = 16
-section = "rod"
-reference_vector = [0.0, 1.0, 0.0]
-[[constraints]]
-node_set = "rod.start"
-dofs = "all"
-[[loads]]
-node_set = "rod.end"
-moment = [0.0, 0.0, 6.283185307179586]
-table = [[0.0, 0.0], [1.0, 1.0]]
-[[steps]]
-type = "static"
-end_time = 1.0
-dt = {2:.17g}
-dt_max = {2:.17g}
-max_iterations = 30
-)",
-                                       EA, 0.35 * EA, 1.0 / increments);
-  return read_deck_string(deck, "rollup.toml");
+  return rollup_deck(EA, 0.35 * EA, 0.77, 16, 1.0, 1.0 / increments, 30);
 }
 
 TEST(Newton, SlenderRodsRollUpInFewIterationsWithTheMixedStresses) {
