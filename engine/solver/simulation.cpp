@@ -737,16 +737,16 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     // The converged state's tangent for the first correction (above): evaluated there, kept
     // where its active set is the predictor's; the predictor is evaluated again otherwise. The
     // predictor is the converged state with the prescribed values at t_new, made again.
-    bool from_converged = false;
+    bool from_converged = false; // the correction comes from the converged state's tangent
     if (first_from_converged) {
       first_from_converged = false;
-      from_converged = true;
       const Eigen::VectorXd rhs_at_predictor = rhs_;
       state_.x = state_.x_n;
       state_.alpha.setZero();
       const Evaluation at_converged = evaluate(step, nm, t_new, true, residual);
       const bool same_contacts =
           at_converged.veto.empty() && (!contact_ || contact_->summary().active_set == active_set);
+      from_converged = same_contacts;
       apply_prescribed(t_new);
       if (!same_contacts) {
         const Evaluation again = evaluate(step, nm, t_new, true, residual);
