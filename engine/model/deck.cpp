@@ -143,6 +143,7 @@ constexpr TableSpec kNewmark{"newmark", kNewmarkKeys};
 constexpr KeySpec kRayleighKeys[] = {
     {"mass", Type::Number, kOptional, kNonNegative},
     {"stiffness", Type::Number, kOptional, kNonNegative},
+    {"out_of_plane", Type::Number, kOptional, kNonNegative},
 };
 constexpr TableSpec kRayleigh{"rayleigh", kRayleighKeys};
 constexpr KeySpec kStepKeys[] = {
@@ -880,6 +881,10 @@ private:
       if (known_type && step.type == StepType::Static && t.present("rayleigh"))
         t.error("rayleigh", "'rayleigh' damping applies only to dynamic and explicit steps; this "
                             "step is \"static\"");
+      if (const CheckedTable* ray = t.table("rayleigh");
+          ray && known_type && step.type == StepType::Explicit && ray->present("out_of_plane"))
+        ray->error("out_of_plane", "'out_of_plane' damping applies only to dynamic (Newmark) "
+                                   "steps; this step is \"explicit\"");
       if (known_type && step.type == StepType::Explicit)
         for (std::string_view k : {"max_iterations", "tolerance", "dt_max"})
           if (t.present(k))
@@ -935,6 +940,7 @@ private:
       if (const CheckedTable* ray = t.table("rayleigh")) {
         step.rayleigh_mass = ray->number("mass").value_or(0);
         step.rayleigh_stiffness = ray->number("stiffness").value_or(0);
+        step.rayleigh_out_of_plane = ray->number("out_of_plane").value_or(0);
       }
       step.output_every = static_cast<int>(
           std::min<long long>(t.integer("output_every").value_or(1), 1'000'000'000));

@@ -123,7 +123,11 @@ struct SolutionStep {
   double newmark_gamma = 0.5;
   double rayleigh_mass = 0;      ///< C = a M + b K: a, 1/s
   double rayleigh_stiffness = 0; ///< b, s
-  int output_every = 1;          ///< write results every N completed increments
+  /// 1/s: mass-proportional damping of the translations along z alone, c m v_z (dynamic steps;
+  /// the fabric builder's normal): it holds yarns floating across a weave's clearance without
+  /// resisting the in-plane motion of a shear test (formulation.md "Solution").
+  double rayleigh_out_of_plane = 0;
+  int output_every = 1; ///< write results every N completed increments
   // Explicit steps (central difference, engine/solver/central_difference.cpp).
   double safety_factor = 0.8; ///< step = safety_factor * critical step (2 / omega_max)
   double mass_scaling_dt = 0; ///< s; > 0: add element mass until the stable step reaches it

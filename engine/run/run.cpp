@@ -229,7 +229,7 @@ private:
 /// dissipation (dynamic and explicit steps).
 bool has_mass_damping(const Model& model) {
   for (const SolutionStep& step : model.steps)
-    if (step.type != StepType::Static && step.rayleigh_mass > 0)
+    if (step.type != StepType::Static && (step.rayleigh_mass > 0 || step.rayleigh_out_of_plane > 0))
       return true;
   return false;
 }

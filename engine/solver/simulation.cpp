@@ -386,6 +386,7 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
   // the same in any order.
   if (dynamic) {
     const double cm = step.rayleigh_mass;
+    const double cz = step.rayleigh_out_of_plane;
     tbb::combinable<std::pair<double, double>> largest(
         [] { return std::pair<double, double>(0.0, 0.0); });
     tbb::parallel_for(
@@ -397,7 +398,8 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
                 nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
             const Eigen::Vector3d v =
                 nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
-            const Eigen::Vector3d f = mass_(i) * (a + cm * v);
+            Eigen::Vector3d f = mass_(i) * (a + cm * v);
+            f.z() += mass_(i) * cz * v.z();
             residual.segment<3>(6 * i) += f;
             Eigen::Vector3d r;
             Eigen::Matrix3d K;
@@ -406,8 +408,9 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
                            state_.alpha.col(i), r, K);
             residual.segment<3>(6 * i + 3) += r;
             if (want_tangent) {
-              assembler_->add_node_block(
-                  i, 0, 0, (mass_(i) * (nm.a1 + cm * nm.a4)) * Eigen::Matrix3d::Identity());
+              Eigen::Matrix3d K_u = (mass_(i) * (nm.a1 + cm * nm.a4)) * Eigen::Matrix3d::Identity();
+              K_u(2, 2) += mass_(i) * cz * nm.a4;
+              assembler_->add_node_block(i, 0, 0, K_u);
               assembler_->add_node_block(i, 3, 3, K);
             }
             local.first = std::max(local.first, f.norm());
@@ -871,6 +874,10 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
       // discrete equations); for rotations its rate c W.J W (W the material angular velocity,
       // J the principal rotary inertias) by the trapezoidal rule. The stiffness-proportional
       // part is not counted.
+      // The out-of-plane damping's the same way, on the z components alone.
+      if (step.rayleigh_out_of_plane > 0)
+        damping_work_ +=
+            step.rayleigh_out_of_plane * 0.5 * mass_(i) * (state_.v_n(2, i) + v.z()) * du.z();
       if (step.rayleigh_mass > 0) {
         const Eigen::Vector3d& J = rotary_inertia_.col(i);
         const Eigen::Vector3d& W_n = state_.W_n.col(i);

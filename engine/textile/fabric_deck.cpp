@@ -130,6 +130,7 @@ constexpr TableSpec kExplicit{"explicit", kExplicitKeys};
 constexpr KeySpec kRayleighKeys[] = {
     {"mass", Type::Number, kOptional, kNonNegative},
     {"stiffness", Type::Number, kOptional, kNonNegative},
+    {"out_of_plane", Type::Number, kOptional, kNonNegative},
 };
 constexpr TableSpec kRayleigh{"rayleigh", kRayleighKeys};
 /// The keys of every test's loading step (LoadingParameters, engine/textile/loading.hpp).
@@ -979,7 +980,13 @@ private:
         static_cast<int>(std::min<long long>(t.integer("output_every").value_or(1), 1'000'000'000));
     if (const CheckedTable* ray = t.table("rayleigh")) {
       ok = ok && (!ray->present("mass") || ray->valid("mass")) &&
-           (!ray->present("stiffness") || ray->valid("stiffness"));
+           (!ray->present("stiffness") || ray->valid("stiffness")) &&
+           (!ray->present("out_of_plane") || ray->valid("out_of_plane"));
+      if (p.type == StepType::Explicit && ray->present("out_of_plane")) {
+        ray->error("out_of_plane", "'out_of_plane' damping applies only to dynamic (Newmark) "
+                                   "tests; this test is \"explicit\"");
+        ok = false;
+      }
       if (p.type == StepType::Static) {
         t.error("rayleigh", "'rayleigh' damping applies only to dynamic and explicit tests; this "
                             "test is \"static\"");
@@ -988,6 +995,7 @@ private:
       // Absent mass: the stabilising default of dynamic steps (loading.hpp).
       p.rayleigh_mass = ray->number("mass").value_or(p.rayleigh_mass);
       p.rayleigh_stiffness = ray->number("stiffness").value_or(p.rayleigh_stiffness);
+      p.rayleigh_out_of_plane = ray->number("out_of_plane").value_or(p.rayleigh_out_of_plane);
     }
     return ok;
   }

@@ -68,6 +68,14 @@ SolutionStep loading_step(const LoadingParameters& p, double t0, std::string_vie
                        : p.type == StepType::Dynamic ? kStabilisingDamping
                                                      : 0.0;
   step.rayleigh_stiffness = p.rayleigh_stiffness;
+  if (!std::isfinite(p.rayleigh_out_of_plane) ||
+      (p.rayleigh_out_of_plane > 0 && p.type != StepType::Dynamic))
+    throw std::invalid_argument(
+        fmt::format("{}: expected out-of-plane damping >= 0 on a dynamic step, found {}", test,
+                    p.rayleigh_out_of_plane));
+  step.rayleigh_out_of_plane = p.rayleigh_out_of_plane >= 0  ? p.rayleigh_out_of_plane
+                               : p.type == StepType::Dynamic ? kStabilisingDamping
+                                                             : 0.0;
   return step;
 }
 

@@ -53,6 +53,11 @@ struct LoadingParameters {
   /// dynamic steps, 0 on explicit ones; the shear tests default to 0 (shear_tests.hpp).
   double rayleigh_mass = -1;
   double rayleigh_stiffness = 0;
+  /// 1/s, mass-proportional damping of the out-of-plane (z) translations alone (dynamic tests).
+  /// < 0 (the shear tests' default, shear_tests.hpp): kStabilisingDamping on dynamic steps, 0 on
+  /// the others. It holds the yarns that float across the weave's clearance, as the tension
+  /// tests' damping does, without resisting the shear tests' in-plane rigid motions.
+  double rayleigh_out_of_plane = 0;
 };
 
 /// 1/s: the mass-proportional damping a dynamic (Newmark) test step has unless its deck says

@@ -34,10 +34,14 @@ MeasuredShear measure_shear(const std::vector<CrossingNodes>& crossings, const E
 /// The picture frame test: its loading step, the frame's final shear angle and how the arms hold
 /// the yarn ends.
 struct PictureFrameParameters : LoadingParameters {
-  /// No Rayleigh damping unless the deck asks: the frame moves the yarns through large rigid
-  /// rotations, which mass-proportional damping would resist (on the paper's frame to 30
-  /// degrees, kStabilisingDamping dissipates 0.0017 J against 1.4e-5 J stored).
-  PictureFrameParameters() { rayleigh_mass = 0; }
+  /// No mass-proportional damping unless the deck asks: the frame moves the yarns through large
+  /// rigid rotations, which it would resist (on the paper's frame to 30 degrees,
+  /// kStabilisingDamping dissipates 0.0017 J against 1.4e-5 J stored). A dynamic frame damps
+  /// the out-of-plane translations alone by default (rayleigh_out_of_plane < 0: loading.hpp).
+  PictureFrameParameters() {
+    rayleigh_mass = 0;
+    rayleigh_out_of_plane = -1;
+  }
   double max_angle = 50; ///< degrees, the frame's shear angle at the end of the step, in (0, 90)
   /// The arms turn the yarn ends with them (a clamped fabric) instead of letting them turn
   /// (pinned).
@@ -85,9 +89,12 @@ PictureFrameReading read_picture_frame(const Model& model, double time, const Ei
 /// The bias extension test: its loading step and how far it goes. The specimen (its H, W and
 /// clamp length) is BiasSpecimenParameters'.
 struct BiasExtensionParameters : LoadingParameters {
-  /// No Rayleigh damping unless the deck asks, as for the picture frame: the specimen's zones
-  /// turn and translate as rigid bodies.
-  BiasExtensionParameters() { rayleigh_mass = 0; }
+  /// No mass-proportional damping unless the deck asks, as for the picture frame: the
+  /// specimen's zones turn and translate as rigid bodies. Out of plane as the picture frame.
+  BiasExtensionParameters() {
+    rayleigh_mass = 0;
+    rayleigh_out_of_plane = -1;
+  }
   /// Degrees, in (0, 90): the ideal shear angle of the central zone at the end of the step; the
   /// top clamp travels d(max_angle) (docs/shear-tests.md), ramped along `ramp`.
   double max_angle = 40;

@@ -175,6 +175,28 @@ TEST(Deck, FlyingBeamExampleHasTheVerificationCase) {
   EXPECT_DOUBLE_EQ(m.steps[0].newmark_gamma, 0.5);
 }
 
+TEST(Deck, OutOfPlaneDampingBelongsToDynamicSteps) {
+  const std::string massive =
+      replace(kValid, "GJ = 1.0\n", "GJ = 1.0\nrhoA = 1.0\nrhoJ = [1e-6, 1e-6, 2e-6]\n");
+  const Model m = read_deck_string(replace(massive, "type = \"static\"",
+                                           "type = \"dynamic\"\nrayleigh = { out_of_plane = 2e3 }"),
+                                   "deck.toml");
+  EXPECT_EQ(m.steps[0].rayleigh_out_of_plane, 2e3);
+  EXPECT_EQ(m.steps[0].rayleigh_mass, 0.0);
+  const auto e =
+      errors_of(replace(massive, "type = \"static\"\nend_time = 1.0\ndt = 0.1\ndt_max = 0.2",
+                        "type = \"explicit\"\nend_time = 1.0\ndt = 0.1\n"
+                        "rayleigh = { out_of_plane = -2e3 }"));
+  ASSERT_EQ(e.size(), 2u) << e.front();
+  EXPECT_NE(e[1].find("rayleigh.out_of_plane: 'out_of_plane' damping applies only to dynamic "
+                      "(Newmark) steps; this step is \"explicit\""),
+            std::string::npos)
+      << e[1];
+  EXPECT_NE(e[0].find("rayleigh.out_of_plane: expected a number >= 0, found -2000.0"),
+            std::string::npos)
+      << e[0];
+}
+
 TEST(Deck, UnknownKeyIsReportedWithItsPositionAndASuggestion) {
   const std::string deck = replace(kValid, "EA = 1e4", "EAA = 1e4");
   const auto errors = errors_of(deck);

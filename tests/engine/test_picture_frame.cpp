@@ -198,6 +198,15 @@ TEST(PictureFrame, DeckBuildsTheFrameWithSideBySideContact) {
   // The pretension's step (0.3 % by default), then the shear's.
   ASSERT_EQ(m.steps.size(), 2u);
   EXPECT_EQ(m.steps[1].type, StepType::Static);
+  EXPECT_EQ(m.steps[1].rayleigh_out_of_plane, 0.0);
+  {
+    // A dynamic frame damps the out-of-plane translations alone by default (loading.hpp).
+    std::string dynamic(kDeck);
+    dynamic.replace(dynamic.find("type = \"static\""), 15, "type = \"dynamic\"");
+    const Model d = read_deck_string(dynamic, "frame.toml");
+    EXPECT_EQ(d.steps[1].rayleigh_out_of_plane, textile::kStabilisingDamping);
+    EXPECT_EQ(d.steps[1].rayleigh_mass, 0.0);
+  }
   EXPECT_NEAR(m.picture_frame->stretch.at(m.steps[0].end_time), 1.003, 1e-15);
   // Neighbouring yarns of one direction touch side by side: on by default here, radius a.
   ASSERT_EQ(m.spline_contacts.size(), 3u);

@@ -333,6 +333,19 @@ TEST(FabricDeck, TensionTestsAreStabilisedByDefaultAndTakeTheirRayleighTable) {
   EXPECT_EQ(e[0], "fabric.toml:20:12: biaxial.rayleigh: 'rayleigh' damping applies only to dynamic "
                   "and explicit tests; this test is \"static\"");
   EXPECT_EQ(e[1], "fabric.toml:20:21: biaxial.rayleigh.mass: expected a number >= 0, found -1.0");
+  // The out-of-plane damping: none by default on a tension test, the deck's on a dynamic one, an
+  // error on an explicit one.
+  EXPECT_EQ(m.steps[0].rayleigh_out_of_plane, 0.0);
+  m = read_deck_string(
+      with("type = \"static\"", "type = \"dynamic\"\nrayleigh = { out_of_plane = 3e4 }"),
+      "fabric.toml");
+  EXPECT_EQ(m.steps[0].rayleigh_out_of_plane, 3e4);
+  EXPECT_EQ(m.steps[0].rayleigh_mass, textile::kStabilisingDamping);
+  e = errors_of(
+      with("type = \"static\"", "type = \"explicit\"\nrayleigh = { out_of_plane = 3e4 }"));
+  ASSERT_EQ(e.size(), 1u) << joined(e);
+  EXPECT_EQ(e[0], "fabric.toml:20:29: biaxial.rayleigh.out_of_plane: 'out_of_plane' damping "
+                  "applies only to dynamic (Newmark) tests; this test is \"explicit\"");
 }
 
 TEST(FabricDeck, ImplicitKeysOnAnExplicitTestAndBadExplicitValuesAreReported) {
