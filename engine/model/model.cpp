@@ -71,4 +71,17 @@ Section section_from_shape(std::string name, SectionShape shape, double a, doubl
   return s;
 }
 
+Eigen::Matrix2d PictureFrameTest::linear_map(double t) const {
+  const double gamma = angle.at(t);
+  const double c = std::cos(gamma / 2), s = std::sin(gamma / 2);
+  Eigen::Matrix2d F;
+  F << c, s, s, c;
+  return stretch.at(t) * F;
+}
+
+Eigen::Vector2d PictureFrameTest::carried(double t, const Eigen::Vector2d& X) const {
+  const Eigen::Vector2d centre = corner + Eigen::Vector2d(side / 2, side / 2);
+  return centre + stretch.at(t) * (corner - centre) + linear_map(t) * (X - corner);
+}
+
 } // namespace yarnsim

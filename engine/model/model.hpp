@@ -300,6 +300,13 @@ struct PictureFrameTest {
   double central_region = 0.5;        ///< side of that region over L
   std::vector<CrossingNodes> all;     ///< every crossing: the local shear angle of the pictures
   double locking_angle = 0;           ///< rad, acos(w / p): neighbouring parallel yarns touch
+
+  /// The frame's linear map at time t, s F(gamma): F = [e1 e2], e1 = (cos gamma/2, sin gamma/2),
+  /// e2 = (sin gamma/2, cos gamma/2) (its arms' directions).
+  Eigen::Matrix2d linear_map(double t) const;
+  /// Where the frame carries a point of the fabric's plane at reference X at time t, m:
+  /// A' + s F(gamma) (X - A), A' = c + s (A - c), c the frame's centre.
+  Eigen::Vector2d carried(double t, const Eigen::Vector2d& X) const;
 };
 
 /// A bias extension test (docs/shear-tests.md): a specimen cut with its yarns at +-45 degrees to

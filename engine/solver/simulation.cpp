@@ -483,6 +483,42 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
   return out;
 }
 
+void Simulation::predict(double t_new, double dt) {
+  // The converged state, then the prescribed values at t_new. (Carrying the last increment's
+  // motion on was measured and dropped: docs/performance.md.)
+  state_.x = state_.x_n;
+  state_.alpha.setZero();
+  if (options_.kinematic_predictor && model_.picture_frame) {
+    // A picture frame's free nodes move with the frame's map over the increment (the trellis's
+    // kinematics), their sections turning as the map turns their tangents: the predictor that
+    // moved the yarn ends alone strained the elements next to them by 1e4 N and its first
+    // corrections turned sections by radians (formulation.md "Solution").
+    const PictureFrameTest& frame = *model_.picture_frame;
+    const double t0 = t_new - dt;
+    Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
+    turn.topLeftCorner<2, 2>() = frame.linear_map(t_new) * frame.linear_map(t0).inverse();
+    const std::vector<int>& eq = assembler_->equations();
+    for (int i = 0; i < state_.n_nodes(); ++i) {
+      bool free = true;
+      for (int c = 0; c < 6; ++c)
+        free = free && eq[6 * i + c] >= 0;
+      if (!free)
+        continue;
+      const Eigen::Vector2d X = model_.nodes[i].head<2>();
+      state_.x.col(i).head<2>() += frame.carried(t_new, X) - frame.carried(t0, X);
+      // The rotation taking the tangent d to the map's (turn d) normalised, about d x d':
+      // Rodrigues parameters 2 tan(theta / 2) e (rotation.hpp).
+      const Eigen::Vector3d d = state_.Q_n[i].col(2);
+      const Eigen::Vector3d d1 = (turn * d).normalized();
+      const Eigen::Vector3d axis = d.cross(d1);
+      const double sine = axis.norm();
+      if (sine > 0)
+        state_.alpha.col(i) = 2 * std::tan(0.5 * std::atan2(sine, d.dot(d1))) / sine * axis;
+    }
+  }
+  apply_prescribed(t_new);
+}
+
 void Simulation::move_along(const Eigen::VectorXd& delta, double s) {
   const std::vector<int>& eq = assembler_->equations();
   const int n = state_.n_nodes();
@@ -575,10 +611,6 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   const int n = state_.n_nodes();
   const NewmarkCoefficients nm(step.newmark_beta, step.newmark_gamma, dt);
   Eigen::VectorXd residual(6 * n);
-  // Predictor: the converged state, then the prescribed values at t_new. (Carrying the last
-  // increment's motion on was measured and dropped: docs/performance.md.)
-  state_.x = state_.x_n;
-  state_.alpha.setZero();
   mixed_.active = false; // the first evaluation's tangent is the displacement-based one
   solver_->start_attempt();
   if (contact_)
@@ -594,7 +626,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   // predictor, to first order K_fp du_p). Where the predictor closes or opens contacts (pins
   // pushed into a slack yarn) that tangent lacks them and the predictor's is kept. It costs one
   // evaluation (two where the active sets differ) and no factorisation.
-  apply_prescribed(t_new);
+  predict(t_new, dt);
   bool first_from_converged = options_.line_search &&
                               options_.first_correction_from_converged_state &&
                               (state_.x != state_.x_n || state_.alpha.cwiseAbs().maxCoeff() > 0);
@@ -750,7 +782,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       const bool same_contacts =
           at_converged.veto.empty() && (!contact_ || contact_->summary().active_set == active_set);
       from_converged = same_contacts;
-      apply_prescribed(t_new);
+      predict(t_new, dt);
       if (!same_contacts) {
         const Evaluation again = evaluate(step, nm, t_new, true, residual);
         if (!again.veto.empty())

@@ -126,6 +126,9 @@ struct SimulationOptions {
   /// the section resultants of the strains linearised along the correction in use instead of
   /// those of the current strains; false: the displacement-based Newton.
   bool mixed_integration_point = true;
+  /// A picture frame's predictor moves the free nodes with the frame's map (Simulation::predict);
+  /// false: the converged state with the prescribed values alone.
+  bool kinematic_predictor = true;
 };
 
 class Simulation {
@@ -229,6 +232,10 @@ private:
   /// The explicit integrator's state while an explicit step runs (central_difference.cpp).
   ExplicitProgress explicit_progress() const;
   void apply_prescribed(double t_new);
+  /// The predictor of an increment from t_new - dt to t_new: the converged state, moved with a
+  /// picture frame's map where the model has one (SimulationOptions::kinematic_predictor), then
+  /// the prescribed values at t_new.
+  void predict(double t_new, double dt);
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
   /// A force or moment v of the load at node, given along load.axes, as global components in
