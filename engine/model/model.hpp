@@ -269,6 +269,10 @@ struct BiaxialTest {
   /// Set: a uniaxial tension test. Only this direction's yarn ends are pulled (by max_strain);
   /// the other direction's ends are free (no prescribed DOF) and strain_ratio has no meaning.
   std::optional<FabricDirection> uniaxial;
+  /// The yarns' end-to-end strain eps(t) the ends are pulled by, per direction (0 for the free
+  /// direction of a uniaxial test): each end moves by eps(t) L / 2 along its yarn.
+  TimeTable strain_warp = TimeTable::constant(0.0);
+  TimeTable strain_weft = TimeTable::constant(0.0);
 };
 
 /// A crossing of a warp and a weft yarn where a shear test measures the angle between the yarns:

@@ -126,7 +126,8 @@ struct SimulationOptions {
   /// the section resultants of the strains linearised along the correction in use instead of
   /// those of the current strains; false: the displacement-based Newton.
   bool mixed_integration_point = true;
-  /// A picture frame's predictor moves the free nodes with the frame's map (Simulation::predict);
+  /// The predictor moves the free nodes with the test's kinematics (Simulation::predict): a
+  /// picture frame's map, a frictionless tension test's yarns stretched with their ends;
   /// false: the converged state with the prescribed values alone.
   bool kinematic_predictor = true;
 };
@@ -233,8 +234,8 @@ private:
   ExplicitProgress explicit_progress() const;
   void apply_prescribed(double t_new);
   /// The predictor of an increment from t_new - dt to t_new: the converged state, moved with a
-  /// picture frame's map where the model has one (SimulationOptions::kinematic_predictor), then
-  /// the prescribed values at t_new.
+  /// picture frame's map or a frictionless tension test's stretch of its pulled yarns where the
+  /// model has one (SimulationOptions::kinematic_predictor), then the prescribed values at t_new.
   void predict(double t_new, double dt);
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;

@@ -47,6 +47,8 @@ void add_biaxial_test(Fabric& fabric, const BiaxialParameters& p) {
   test.uniaxial = p.uniaxial;
   test.max_strain = p.max_strain;
   test.loading_time = T;
+  test.strain_warp = ramp_table(t0, t0 + T, eps_warp, p.ramp);
+  test.strain_weft = ramp_table(t0, t0 + T, eps_weft, p.ramp);
   bool have_warp = false, have_weft = false;
   for (const Yarn& y : fabric.yarns) {
     const std::string yarn = yarn_name(y);
