@@ -560,6 +560,10 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
       groups.push_back(group.rotations ? 1 : 0);
     }
     write_table(pattern.id(), "groups", groups, 7);
+    if (!c.ordering.inverse_permutation.empty()) {
+      write_table(pattern.id(), "ordering", c.ordering.inverse_permutation, 1);
+      h5::write_double_attribute(pattern.id(), "ordering_fill", c.ordering.fill);
+    }
     pattern.close();
 
     if (c.contact)
@@ -652,6 +656,10 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
     c.pattern_groups.push_back(
         {{groups[i], groups[i + 1], groups[i + 2], groups[i + 3], groups[i + 4], groups[i + 5]},
          groups[i + 6] != 0});
+  if (h5::exists(pattern.id(), "ordering")) {
+    c.ordering.inverse_permutation = read_int_table(pattern.id(), "ordering", 1);
+    c.ordering.fill = h5::read_double_attribute(pattern.id(), "ordering_fill");
+  }
 
   if (h5::exists(root, "contact"))
     c.contact = read_contact(root);

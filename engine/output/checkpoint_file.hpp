@@ -13,7 +13,8 @@
 //                column-major; gauss_Q (2 n_elements, 9), gauss_kappa (2 n_elements, 3);
 //                reactions, load_n (n_nodes, 6)
 //   /pattern     groups (n, 7) int32: a coupling's 6 nodes, then 1 with rotations, else 0
-//                (SimulationCheckpoint::pattern_groups)
+//                (SimulationCheckpoint::pattern_groups); ordering (n_equations, 1) int32 and
+//                attribute ordering_fill: the LDL^T's kept ordering (absent: none)
 //   /contact     with spline contact: attributes candidates_version, definitions;
 //                boxes_<k> (n_segments, 6): min then max corner of definition k's last search;
 //                committed_keys (n, 3) int32, committed (n, 3): xi_A, xi_B, active;

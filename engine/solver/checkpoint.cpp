@@ -42,6 +42,7 @@ SimulationCheckpoint Simulation::checkpoint() const {
   if (contact_ && contact_->surface())
     c.surface_contact = contact_->surface()->snapshot();
   c.pattern_groups = assembler_->couplings();
+  c.ordering = solver_->ordering();
   return c;
 }
 
@@ -109,6 +110,7 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
         throw std::invalid_argument(
             fmt::format("checkpoint: a contact coupling names node index {} of {}", node, n));
   assembler_->set_couplings(from.pattern_groups);
+  solver_->set_ordering(from.ordering);
 }
 
 } // namespace yarnsim

@@ -7,6 +7,7 @@
 
 #include "engine/contact/spline_contact_set.hpp"
 #include "engine/contact/surface_contact_set.hpp"
+#include "engine/solver/linear_solver.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/state/state.hpp"
 
@@ -56,6 +57,9 @@ struct SimulationCheckpoint {
   /// Assembler::set_couplings they rebuild the same pattern, hence the same ordering and
   /// factorisation.
   std::vector<ContactCoupling> pattern_groups;
+  /// The linear solver's kept ordering (LinearSolver::ordering): a restart tries it first on
+  /// its pattern, as the run straight through does.
+  SolverOrdering ordering;
 };
 
 } // namespace yarnsim

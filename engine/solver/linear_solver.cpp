@@ -168,6 +168,14 @@ Permutation metis_inverse_permutation(const SparseMatrix& lower) {
   return inverse;
 }
 
+/// Eigen's SimplicialLDLT with the factor's nonzeros counted by its symbolic analysis.
+template <class Ordering>
+class CountingLDLT : public Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, Ordering> {
+public:
+  /// Nonzeros of L (strictly below the diagonal) the last analyzePattern found.
+  Eigen::Index factor_nonzeros() const { return this->m_nonZerosPerCol.sum(); }
+};
+
 /// LDL^T of the symmetric part (Eigen SimplicialLDLT, METIS ordering). The METIS permutation and
 /// the permuted upper triangle's pattern are made once per pattern, with the index of the
 /// symmetric part's entry that fills each of its entries; a factorisation then gathers the values
@@ -175,24 +183,28 @@ Permutation metis_inverse_permutation(const SparseMatrix& lower) {
 /// permute the whole matrix again at every factorisation (8 % of the paper's k = 1 run,
 /// docs/performance.md). The arithmetic is the same: the same permutation, the same entries in
 /// the same places.
+///
+/// A changed pattern (contact pairs coupled or released) keeps the last ordering while the
+/// factor's fill stays within kOrderingFillGrowth of the fill it had when METIS computed it:
+/// METIS took 70 % of each analysis, and the 24 x 24 weave's pattern changes 43 times
+/// (docs/performance.md, "The ordering kept across contact patterns").
 class SymmetricLDLTSolver final : public LinearSolver {
 public:
   void analyze(const SparseMatrix& A) override {
     sym_.analyze(A);
+    const auto matrix_nonzeros = static_cast<double>(sym_.matrix().nonZeros());
+    if (ordering_.fill > 0 &&
+        static_cast<Eigen::Index>(ordering_.inverse_permutation.size()) == A.rows()) {
+      permute();
+      if (ldlt_.factor_nonzeros() <= kOrderingFillGrowth * ordering_.fill * matrix_nonzeros)
+        return;
+    }
     inverse_permutation_ = metis_inverse_permutation(sym_.matrix());
-    permutation_ = inverse_permutation_.inverse();
-    // The permuted upper triangle with, as values, the index of the entry of the symmetric
-    // part's lower triangle that lands there (exact in a double below 2^53 entries).
-    SparseMatrix index = sym_.matrix();
-    for (Eigen::Index k = 0; k < index.nonZeros(); ++k)
-      index.valuePtr()[k] = static_cast<double>(k);
-    permuted_.resize(A.rows(), A.cols());
-    permuted_.selfadjointView<Eigen::Upper>() =
-        index.selfadjointView<Eigen::Lower>().twistedBy(permutation_);
-    source_.resize(static_cast<std::size_t>(permuted_.nonZeros()));
-    for (Eigen::Index k = 0; k < permuted_.nonZeros(); ++k)
-      source_[static_cast<std::size_t>(k)] = static_cast<int>(permuted_.valuePtr()[k]);
-    ldlt_.analyzePattern(permuted_);
+    ordering_.inverse_permutation.assign(inverse_permutation_.indices().data(),
+                                         inverse_permutation_.indices().data() +
+                                             inverse_permutation_.size());
+    permute();
+    ordering_.fill = static_cast<double>(ldlt_.factor_nonzeros()) / matrix_nonzeros;
   }
   void factorize(const SparseMatrix& A) override {
     sym_.update(A);
@@ -210,13 +222,38 @@ public:
     return inverse_permutation_ * y;
   }
   std::string name() const override { return "ldlt"; }
+  SolverOrdering ordering() const override { return ordering_; }
+  void set_ordering(const SolverOrdering& o) override {
+    ordering_ = o;
+    inverse_permutation_.indices() = Eigen::Map<const Eigen::VectorXi>(
+        o.inverse_permutation.data(), static_cast<Eigen::Index>(o.inverse_permutation.size()));
+  }
 
 private:
+  /// The permuted upper triangle of the symmetric part under inverse_permutation_, the source
+  /// of each of its entries, and its symbolic analysis.
+  void permute() {
+    permutation_ = inverse_permutation_.inverse();
+    // The permuted upper triangle with, as values, the index of the entry of the symmetric
+    // part's lower triangle that lands there (exact in a double below 2^53 entries).
+    SparseMatrix index = sym_.matrix();
+    for (Eigen::Index k = 0; k < index.nonZeros(); ++k)
+      index.valuePtr()[k] = static_cast<double>(k);
+    permuted_.resize(index.rows(), index.cols());
+    permuted_.selfadjointView<Eigen::Upper>() =
+        index.selfadjointView<Eigen::Lower>().twistedBy(permutation_);
+    source_.resize(static_cast<std::size_t>(permuted_.nonZeros()));
+    for (Eigen::Index k = 0; k < permuted_.nonZeros(); ++k)
+      source_[static_cast<std::size_t>(k)] = static_cast<int>(permuted_.valuePtr()[k]);
+    ldlt_.analyzePattern(permuted_);
+  }
+
   SymmetricPart sym_;
   Permutation permutation_, inverse_permutation_;
+  SolverOrdering ordering_;
   SparseMatrix permuted_;   ///< upper triangle of P S P^T, S the symmetric part
   std::vector<int> source_; ///< per entry of permuted_: the entry of S it takes
-  Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, Eigen::NaturalOrdering<int>> ldlt_;
+  CountingLDLT<Eigen::NaturalOrdering<int>> ldlt_;
 };
 
 #ifdef YARNSIM_HAVE_MUMPS
@@ -439,6 +476,8 @@ public:
   }
   void start_attempt() override { lu_for_attempt_ = false; }
   std::string name() const override { return "ldlt-gmres"; }
+  SolverOrdering ordering() const override { return ldlt_.ordering(); }
+  void set_ordering(const SolverOrdering& o) override { ldlt_.set_ordering(o); }
 
 private:
   void factorize_lu() {
@@ -478,6 +517,8 @@ public:
   }
   void start_attempt() override { solver_->start_attempt(); }
   std::string name() const override { return solver_->name(); }
+  SolverOrdering ordering() const override { return solver_->ordering(); }
+  void set_ordering(const SolverOrdering& o) override { solver_->set_ordering(o); }
 
 private:
   std::unique_ptr<LinearSolver> solver_;

@@ -1,12 +1,13 @@
 #pragma once
 // Sparse direct solvers behind one interface: the pattern is analysed (fill-reducing METIS
 // ordering) once and refactorised while it does not change (engineering-notes.md, "Sparse direct
-// solvers").
+// solvers"); the LDL^T keeps its ordering across pattern changes while the fill allows.
 
 #include <Eigen/SparseCore>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace yarnsim {
 
@@ -44,6 +45,19 @@ inline constexpr int kMumpsEquations = 500000;
 /// Whether this build has MUMPS (the `mumps` linear solver).
 bool mumps_available();
 
+/// A fill-reducing ordering kept across pattern changes (SymmetricLDLT): the inverse
+/// permutation (position -> equation) and the factor's fill, nonzeros of L over those of the
+/// matrix, of the pattern it was computed for. Empty where the solver keeps none.
+struct SolverOrdering {
+  std::vector<int> inverse_permutation;
+  double fill = 0;
+};
+
+/// A kept ordering serves a changed pattern while its factor's fill stays within this factor of
+/// the fill it had when computed; METIS orders the pattern afresh otherwise (docs/performance.md,
+/// "The ordering kept across contact patterns").
+inline constexpr double kOrderingFillGrowth = 1.02;
+
 class LinearSolver {
 public:
   virtual ~LinearSolver() = default;
@@ -57,6 +71,10 @@ public:
   /// the next one afresh.
   virtual void start_attempt() {}
   virtual std::string name() const = 0;
+  /// The ordering in use (a checkpoint keeps it, so a restart makes the same choices).
+  virtual SolverOrdering ordering() const { return {}; }
+  /// Continue from this ordering: the next analysis tries it first.
+  virtual void set_ordering(const SolverOrdering&) {}
 };
 
 std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind);

@@ -133,6 +133,8 @@ void expect_same_surface_checkpoints(const Recorder& straight, std::size_t k,
     const SimulationCheckpoint& a = straight.checkpoints[k + 1 + j];
     const SimulationCheckpoint& b = restarted.checkpoints[j];
     EXPECT_EQ(a.pattern_groups, b.pattern_groups);
+    EXPECT_EQ(a.ordering.inverse_permutation, b.ordering.inverse_permutation);
+    EXPECT_EQ(a.ordering.fill, b.ordering.fill);
     ASSERT_TRUE(a.surface_contact && b.surface_contact);
     const SurfaceContactSet::Snapshot& p = *a.surface_contact;
     const SurfaceContactSet::Snapshot& q = *b.surface_contact;
@@ -285,6 +287,11 @@ TEST_F(Checkpoint, SurfaceContactFabricThroughTheFileGoesOnBitForBit) {
   output::write_checkpoint(dir, straight.checkpoints[k], {3, {}, "x"});
   const output::StoredCheckpoint stored = output::read_checkpoint(dir);
   ASSERT_TRUE(stored.simulation.surface_contact.has_value());
+  // The LDL^T's kept ordering (ldlt-gmres with surface contact) goes through the file whole.
+  ASSERT_FALSE(straight.checkpoints[k].ordering.inverse_permutation.empty());
+  EXPECT_EQ(stored.simulation.ordering.inverse_permutation,
+            straight.checkpoints[k].ordering.inverse_permutation);
+  EXPECT_EQ(stored.simulation.ordering.fill, straight.checkpoints[k].ordering.fill);
   {
     // Before its first increment the restored set shows the last evaluation's figures, which an
     // explicit step's stable-step estimate reads.

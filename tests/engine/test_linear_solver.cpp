@@ -172,6 +172,86 @@ TEST(LinearSolver, AutoTakesMumpsForLargeSymmetricModels) {
   }
 }
 
+/// The 5-point Laplacian of an m x m grid plus 0.1 on the diagonal, with extra symmetric
+/// couplings (i, j) of value -0.05 (a contact pair coupled in the pattern).
+SparseMatrix grid(int m, const std::vector<std::pair<int, int>>& extra) {
+  std::vector<Eigen::Triplet<double>> t;
+  const auto id = [m](int i, int j) { return i * m + j; };
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) {
+      t.emplace_back(id(i, j), id(i, j), 4.1);
+      if (i + 1 < m) {
+        t.emplace_back(id(i, j), id(i + 1, j), -1.0);
+        t.emplace_back(id(i + 1, j), id(i, j), -1.0);
+      }
+      if (j + 1 < m) {
+        t.emplace_back(id(i, j), id(i, j + 1), -1.0);
+        t.emplace_back(id(i, j + 1), id(i, j), -1.0);
+      }
+    }
+  for (const auto& [a, b] : extra) {
+    t.emplace_back(a, b, -0.05);
+    t.emplace_back(b, a, -0.05);
+  }
+  SparseMatrix A(m * m, m * m);
+  A.setFromTriplets(t.begin(), t.end());
+  return A;
+}
+
+TEST(LinearSolver, LDLTKeepsItsOrderingWhileTheFillAllows) {
+  // A contact pair coupled or released changes the pattern; METIS was 70 % of each analysis.
+  // The LDL^T keeps its ordering while the factor's fill stays within kOrderingFillGrowth of the
+  // fill it had when computed, and orders afresh when the pattern outgrows it. Each system is
+  // solved to round-off either way, and a solver given the kept ordering (a restart) makes the
+  // same choice and the same bits.
+  const int m = 40;
+  const SparseMatrix A0 = grid(m, {});
+  const SparseMatrix A1 = grid(m, {{0, m + 1}, {5 * m + 7, 6 * m + 8}}); // two diagonal pairs
+  std::vector<std::pair<int, int>> far;
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> node(0, m * m - 1);
+  for (int k = 0; k < 200; ++k) {
+    const int a = node(rng), b = node(rng);
+    if (a != b)
+      far.emplace_back(a, b);
+  }
+  const SparseMatrix A2 = grid(m, far); // couplings across the whole grid
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(m * m, -1.0, 2.0);
+  for (const LinearSolverKind kind :
+       {LinearSolverKind::LDLTSymmetric, LinearSolverKind::LDLTGmres}) {
+    auto solver = make_linear_solver(kind);
+    solver->start_attempt();
+    const auto solve = [&](LinearSolver& s, const SparseMatrix& A) {
+      s.analyze(A);
+      s.factorize(A);
+      const Eigen::VectorXd x = s.solve(b);
+      EXPECT_LT(relative_residual(A, x, b), 1e-13);
+      return x;
+    };
+    solve(*solver, A0);
+    const SolverOrdering first = solver->ordering();
+    ASSERT_EQ(first.inverse_permutation.size(), static_cast<std::size_t>(m * m));
+    EXPECT_GT(first.fill, 0.0);
+    solve(*solver, A1);
+    EXPECT_EQ(solver->ordering().inverse_permutation, first.inverse_permutation);
+    EXPECT_EQ(solver->ordering().fill, first.fill);
+    // A restart from the kept ordering: the same choice, the same bits.
+    auto restarted = make_linear_solver(kind);
+    restarted->start_attempt();
+    restarted->set_ordering(solver->ordering());
+    const Eigen::VectorXd x1 = solve(*solver, A1), x1_restarted = solve(*restarted, A1);
+    EXPECT_EQ((x1 - x1_restarted).cwiseAbs().maxCoeff(), 0.0);
+    // A fresh solver orders A1 afresh: another permutation.
+    auto fresh = make_linear_solver(kind);
+    fresh->start_attempt();
+    solve(*fresh, A1);
+    EXPECT_NE(fresh->ordering().inverse_permutation, first.inverse_permutation);
+    // The far couplings fill the factor beyond the kept ordering's fill: METIS again.
+    solve(*solver, A2);
+    EXPECT_NE(solver->ordering().inverse_permutation, first.inverse_permutation);
+  }
+}
+
 TEST(LinearSolver, NamesAreParsedAndUnknownOnesListTheChoices) {
   EXPECT_EQ(linear_solver_kind_from("mumps"), LinearSolverKind::MUMPS);
   EXPECT_EQ(linear_solver_kind_from("ldlt-gmres"), LinearSolverKind::LDLTGmres);
