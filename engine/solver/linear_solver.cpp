@@ -1,6 +1,7 @@
 #include "engine/solver/linear_solver.hpp"
 
 // Eigen's MetisSupport needs <iostream> before it (engineering-notes.md).
+#include <atomic>
 #include <cmath>
 #include <iostream>
 
@@ -12,7 +13,9 @@
 #ifdef YARNSIM_HAVE_MUMPS
 #include <dmumps_c.h>
 #endif
+#include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 #include <vector>
 
 // OpenBLAS, behind CHOLMOD's supernodes, keeps its own thread pool (engineering-notes.md); weak:
@@ -78,25 +81,39 @@ private:
 class SymmetricPart {
 public:
   const SparseMatrix& matrix() const { return sym_; }
+  /// The columns are independent: in parallel (the same map on any thread count).
   void analyze(const SparseMatrix& A) {
     sym_ = A;
     transpose_index_.assign(A.nonZeros(), -1);
-    for (int col = 0; col < A.outerSize(); ++col)
-      for (int k = A.outerIndexPtr()[col]; k < A.outerIndexPtr()[col + 1]; ++k) {
-        const int row = A.innerIndexPtr()[k];
-        const int* begin = A.innerIndexPtr() + A.outerIndexPtr()[row];
-        const int* end = A.innerIndexPtr() + A.outerIndexPtr()[row + 1];
-        const int* hit = std::lower_bound(begin, end, col);
-        if (hit == end || *hit != col)
-          throw LinearSolverError("the matrix pattern is not structurally symmetric");
-        transpose_index_[k] = static_cast<int>(hit - A.innerIndexPtr());
-      }
+    std::atomic<bool> symmetric = true;
+    tbb::parallel_for(tbb::blocked_range<int>(0, static_cast<int>(A.outerSize()), 1024),
+                      [&](const tbb::blocked_range<int>& columns) {
+                        for (int col = columns.begin(); col < columns.end(); ++col)
+                          for (int k = A.outerIndexPtr()[col]; k < A.outerIndexPtr()[col + 1];
+                               ++k) {
+                            const int row = A.innerIndexPtr()[k];
+                            const int* begin = A.innerIndexPtr() + A.outerIndexPtr()[row];
+                            const int* end = A.innerIndexPtr() + A.outerIndexPtr()[row + 1];
+                            const int* hit = std::lower_bound(begin, end, col);
+                            if (hit == end || *hit != col)
+                              symmetric = false;
+                            else
+                              transpose_index_[k] = static_cast<int>(hit - A.innerIndexPtr());
+                          }
+                      });
+    if (!symmetric)
+      throw LinearSolverError("the matrix pattern is not structurally symmetric");
   }
+  /// Entry by entry (memory bound, in parallel: each entry the same on any thread count).
   void update(const SparseMatrix& A) {
     const double* a = A.valuePtr();
     double* s = sym_.valuePtr();
-    for (Eigen::Index k = 0; k < A.nonZeros(); ++k)
-      s[k] = 0.5 * (a[k] + a[transpose_index_[k]]);
+    const int* t = transpose_index_.data();
+    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, A.nonZeros(), 1 << 15),
+                      [&](const tbb::blocked_range<Eigen::Index>& range) {
+                        for (Eigen::Index k = range.begin(); k < range.end(); ++k)
+                          s[k] = 0.5 * (a[k] + a[t[k]]);
+                      });
   }
 
 private:
@@ -210,8 +227,12 @@ public:
     sym_.update(A);
     const double* s = sym_.matrix().valuePtr();
     double* p = permuted_.valuePtr();
-    for (std::size_t k = 0; k < source_.size(); ++k)
-      p[k] = s[source_[k]];
+    const int* source = source_.data();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, source_.size(), 1 << 15),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t k = range.begin(); k < range.end(); ++k)
+                          p[k] = s[source[k]];
+                      });
     ldlt_.factorize(permuted_);
     if (ldlt_.info() != Eigen::Success)
       throw LinearSolverError("sparse LDLT factorisation failed (singular tangent)");
