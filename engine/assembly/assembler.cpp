@@ -269,8 +269,72 @@ bool Assembler::ensure_couplings(std::vector<ContactCoupling> groups) {
              std::back_inserter(merged));
   couplings_ = std::move(merged);
   if (grow)
-    build_pattern(true);
+    grow_pattern(unlisted);
   return grow;
+}
+
+void Assembler::grow_pattern(const std::vector<ContactCoupling>& added) {
+  // The entries (column, row) the pattern lacks, sorted and unique.
+  std::vector<std::pair<int, int>> fresh;
+  for (const ContactCoupling& g : added) {
+    const int dofs = g.rotations ? 6 : 3;
+    for (int a = 0; a < 6; ++a)
+      for (int i = 0; i < dofs; ++i) {
+        const int col = equation_[6 * g.nodes[a] + i];
+        if (col < 0)
+          continue;
+        for (int b = 0; b < 6; ++b)
+          for (int j = 0; j < dofs; ++j) {
+            const int row = equation_[6 * g.nodes[b] + j];
+            if (row >= 0 && slot_of(matrix_, row, col) < 0)
+              fresh.emplace_back(col, row);
+          }
+      }
+  }
+  std::sort(fresh.begin(), fresh.end());
+  fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
+  if (fresh.empty())
+    return;
+  ++pattern_version_;
+  const SparseMatrix old = std::move(matrix_);
+  const Eigen::Index old_size = old.nonZeros();
+  const auto size = static_cast<Eigen::Index>(old_size + static_cast<Eigen::Index>(fresh.size()));
+  matrix_.resize(n_equations_, n_equations_);
+  matrix_.resizeNonZeros(size);
+  int* outer = matrix_.outerIndexPtr();
+  int* inner = matrix_.innerIndexPtr();
+  double* values = matrix_.valuePtr();
+  std::vector<int> moved(static_cast<std::size_t>(old_size)); // old entry -> new entry
+  std::size_t f = 0;
+  int out = 0;
+  for (int c = 0; c < n_equations_; ++c) {
+    outer[c] = out;
+    for (int k = old.outerIndexPtr()[c]; k < old.outerIndexPtr()[c + 1]; ++k) {
+      for (; f < fresh.size() && fresh[f].first == c && fresh[f].second < old.innerIndexPtr()[k];
+           ++f, ++out) {
+        inner[out] = fresh[f].second;
+        values[out] = 0.0;
+      }
+      inner[out] = old.innerIndexPtr()[k];
+      values[out] = old.valuePtr()[k];
+      moved[static_cast<std::size_t>(k)] = out++;
+    }
+    for (; f < fresh.size() && fresh[f].first == c; ++f, ++out) {
+      inner[out] = fresh[f].second;
+      values[out] = 0.0;
+    }
+  }
+  outer[n_equations_] = out;
+  assert(out == size && f == fresh.size());
+  tbb::parallel_for(std::size_t{0}, element_slots_.size(), [&](std::size_t e) {
+    for (int& slot : element_slots_[e])
+      if (slot >= 0)
+        slot = moved[static_cast<std::size_t>(slot)];
+  });
+  for (std::array<int, 36>& node : node_slots_)
+    for (int& slot : node)
+      if (slot >= 0)
+        slot = moved[static_cast<std::size_t>(slot)];
 }
 
 bool Assembler::set_couplings(std::vector<ContactCoupling> groups) {

@@ -104,6 +104,11 @@ private:
   /// The pattern of the beams and couplings_, matrix() zero; with keep_values the entries of
   /// the old pattern (which the new one must hold) keep their values.
   void build_pattern(bool keep_values = false);
+  /// The pattern grown by the entries of `added` it lacks, merged column by column into the old
+  /// one (values kept, new entries 0) and the beams' and nodes' slots moved with their entries:
+  /// the same pattern and slots as build_pattern(true) with `added` in couplings_, without
+  /// visiting every element's block again.
+  void grow_pattern(const std::vector<ContactCoupling>& added);
 
   int n_nodes_ = 0;
   int pattern_version_ = 0;

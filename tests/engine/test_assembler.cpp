@@ -132,6 +132,16 @@ TEST(Assembler, AGrownPatternKeepsTheEntriesAssembledBeforeIt) {
   // The contact pair's own entries: zero until its tangent is added.
   EXPECT_TRUE(holds(grown, 1, 0, 10, 2));
   EXPECT_EQ(grown.matrix().coeff(6 * 1 + 0, 6 * 10 + 2), 0.0);
+  // The grown pattern merged the new entries into the old one (Assembler::grow_pattern): the
+  // same columns as a pattern built with the pair, and the beams' slots moved with their
+  // entries, so the beams assemble into the same places.
+  for (Eigen::Index c = 0; c <= grown.matrix().outerSize(); ++c)
+    ASSERT_EQ(grown.matrix().outerIndexPtr()[c], from_start.matrix().outerIndexPtr()[c]);
+  r.setZero();
+  grown.zero_matrix();
+  grown.add_beams(state, r, true, {});
+  for (Eigen::Index k = 0; k < grown.matrix().nonZeros(); ++k)
+    ASSERT_EQ(grown.matrix().valuePtr()[k], from_start.matrix().valuePtr()[k]) << "entry " << k;
 }
 
 TEST(Assembler, CouplingsThePatternHoldsAlreadyDoNotRebuildIt) {
