@@ -46,9 +46,10 @@ TEST(Study, ExampleStudiesRead) {
   EXPECT_EQ(plain.title, "Plain-woven glass fabric");
   // Each case's test is its deck's test block.
   const Study shear = read_study(kExamples / "shear-study.toml");
-  ASSERT_EQ(shear.cases.size(), 2u);
+  ASSERT_EQ(shear.cases.size(), 3u);
   EXPECT_EQ(shear.cases[0].test, StudyTest::PictureFrame);
   EXPECT_EQ(shear.cases[1].test, StudyTest::Uniaxial);
+  EXPECT_EQ(shear.cases[2].test, StudyTest::BiasExtension);
 }
 
 TEST(Study, PathsAreCheckedAllAtOnce) {
