@@ -50,6 +50,25 @@ int slot_of(const SparseMatrix& m, int row, int col) {
   return (hit != end && *hit == row) ? static_cast<int>(hit - m.innerIndexPtr()) : -1;
 }
 
+/// Visits (column, row) of every free equation pair among `count` nodes' first `dofs` DOFs: an
+/// element's, a node's or a contact coupling's block of the pattern.
+template <class Visit>
+void for_each_block_entry(const std::vector<int>& equation, const int* nodes, int count, int dofs,
+                          Visit&& visit) {
+  for (int a = 0; a < count; ++a)
+    for (int i = 0; i < dofs; ++i) {
+      const int col = equation[6 * nodes[a] + i];
+      if (col < 0)
+        continue;
+      for (int b = 0; b < count; ++b)
+        for (int j = 0; j < dofs; ++j) {
+          const int row = equation[6 * nodes[b] + j];
+          if (row >= 0)
+            visit(col, row);
+        }
+    }
+}
+
 } // namespace
 
 Assembler::Assembler(const Model& model, const std::vector<char>& constrained)
@@ -85,26 +104,12 @@ void Assembler::build_pattern(bool keep_values) {
   // (a counting pass, then a filling pass) and sorted and deduplicated column by column: a global
   // sort of the (column, row) pairs took 7.5 % of the paper's k = 1 run (docs/performance.md).
   auto for_each_entry = [&](auto&& visit) {
-    auto group = [&](const int* nodes, int count, int dofs) {
-      for (int a = 0; a < count; ++a)
-        for (int i = 0; i < dofs; ++i) {
-          const int col = equation_[6 * nodes[a] + i];
-          if (col < 0)
-            continue;
-          for (int b = 0; b < count; ++b)
-            for (int j = 0; j < dofs; ++j) {
-              const int row = equation_[6 * nodes[b] + j];
-              if (row >= 0)
-                visit(col, row);
-            }
-        }
-    };
     for (const auto& c : connectivity_)
-      group(c.data(), 3, 6);
+      for_each_block_entry(equation_, c.data(), 3, 6, visit);
     for (int n = 0; n < n_nodes_; ++n)
-      group(&n, 1, 6);
+      for_each_block_entry(equation_, &n, 1, 6, visit);
     for (const auto& c : couplings_)
-      group(c.nodes.data(), 6, c.rotations ? 6 : 3);
+      for_each_block_entry(equation_, c.nodes.data(), 6, c.rotations ? 6 : 3, visit);
   };
   std::vector<std::size_t> start(static_cast<std::size_t>(n_equations_) + 1, 0);
   for_each_entry([&](int col, int) { ++start[static_cast<std::size_t>(col) + 1]; });
@@ -248,53 +253,28 @@ bool Assembler::ensure_couplings(std::vector<ContactCoupling> groups) {
                       std::back_inserter(unlisted));
   if (unlisted.empty())
     return false;
-  auto present = [&](const ContactCoupling& g) {
-    const int dofs = g.rotations ? 6 : 3;
-    for (int a = 0; a < 6; ++a)
-      for (int b = 0; b < 6; ++b)
-        for (int i = 0; i < dofs; ++i)
-          for (int j = 0; j < dofs; ++j) {
-            const int r = equation_[6 * g.nodes[a] + i], c = equation_[6 * g.nodes[b] + j];
-            if (r >= 0 && c >= 0 && slot_of(matrix_, r, c) < 0)
-              return false;
-          }
-    return true;
-  };
   // Groups the pattern holds already (through the beams or other couplings) are listed too, so
   // that they are not looked up again; the pattern is the same with or without them.
-  const bool grow = !std::all_of(unlisted.begin(), unlisted.end(), present);
   std::vector<ContactCoupling> merged;
   merged.reserve(couplings_.size() + unlisted.size());
   std::merge(couplings_.begin(), couplings_.end(), unlisted.begin(), unlisted.end(),
              std::back_inserter(merged));
   couplings_ = std::move(merged);
-  if (grow)
-    grow_pattern(unlisted);
-  return grow;
+  return grow_pattern(unlisted);
 }
 
-void Assembler::grow_pattern(const std::vector<ContactCoupling>& added) {
+bool Assembler::grow_pattern(const std::vector<ContactCoupling>& added) {
   // The entries (column, row) the pattern lacks, sorted and unique.
   std::vector<std::pair<int, int>> fresh;
-  for (const ContactCoupling& g : added) {
-    const int dofs = g.rotations ? 6 : 3;
-    for (int a = 0; a < 6; ++a)
-      for (int i = 0; i < dofs; ++i) {
-        const int col = equation_[6 * g.nodes[a] + i];
-        if (col < 0)
-          continue;
-        for (int b = 0; b < 6; ++b)
-          for (int j = 0; j < dofs; ++j) {
-            const int row = equation_[6 * g.nodes[b] + j];
-            if (row >= 0 && slot_of(matrix_, row, col) < 0)
-              fresh.emplace_back(col, row);
-          }
-      }
-  }
+  for (const ContactCoupling& g : added)
+    for_each_block_entry(equation_, g.nodes.data(), 6, g.rotations ? 6 : 3, [&](int col, int row) {
+      if (slot_of(matrix_, row, col) < 0)
+        fresh.emplace_back(col, row);
+    });
   std::sort(fresh.begin(), fresh.end());
   fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
   if (fresh.empty())
-    return;
+    return false;
   ++pattern_version_;
   const SparseMatrix old = std::move(matrix_);
   const Eigen::Index old_size = old.nonZeros();
@@ -335,6 +315,7 @@ void Assembler::grow_pattern(const std::vector<ContactCoupling>& added) {
     for (int& slot : node)
       if (slot >= 0)
         slot = moved[static_cast<std::size_t>(slot)];
+  return true;
 }
 
 bool Assembler::set_couplings(std::vector<ContactCoupling> groups) {

@@ -107,8 +107,9 @@ private:
   /// The pattern grown by the entries of `added` it lacks, merged column by column into the old
   /// one (values kept, new entries 0) and the beams' and nodes' slots moved with their entries:
   /// the same pattern and slots as build_pattern(true) with `added` in couplings_, without
-  /// visiting every element's block again.
-  void grow_pattern(const std::vector<ContactCoupling>& added);
+  /// visiting every element's block again. Returns whether the pattern grew (false: it held
+  /// every entry already).
+  bool grow_pattern(const std::vector<ContactCoupling>& added);
 
   int n_nodes_ = 0;
   int pattern_version_ = 0;

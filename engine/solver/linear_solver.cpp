@@ -185,9 +185,10 @@ Permutation metis_inverse_permutation(const SparseMatrix& lower) {
   return inverse;
 }
 
-/// Eigen's SimplicialLDLT with the factor's nonzeros counted by its symbolic analysis.
-template <class Ordering>
-class CountingLDLT : public Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, Ordering> {
+/// Eigen's SimplicialLDLT (natural order: the permutation is applied beforehand) with the
+/// factor's nonzeros counted by its symbolic analysis.
+class CountingLDLT
+    : public Eigen::SimplicialLDLT<SparseMatrix, Eigen::Upper, Eigen::NaturalOrdering<int>> {
 public:
   /// Nonzeros of L (strictly below the diagonal) the last analyzePattern found.
   Eigen::Index factor_nonzeros() const { return this->m_nonZerosPerCol.sum(); }
@@ -210,18 +211,14 @@ public:
   void analyze(const SparseMatrix& A) override {
     sym_.analyze(A);
     const auto matrix_nonzeros = static_cast<double>(sym_.matrix().nonZeros());
-    if (ordering_.fill > 0 &&
-        static_cast<Eigen::Index>(ordering_.inverse_permutation.size()) == A.rows()) {
+    if (fill_ > 0 && inverse_permutation_.size() == A.rows()) {
       permute();
-      if (ldlt_.factor_nonzeros() <= kOrderingFillGrowth * ordering_.fill * matrix_nonzeros)
+      if (ldlt_.factor_nonzeros() <= kOrderingFillGrowth * fill_ * matrix_nonzeros)
         return;
     }
     inverse_permutation_ = metis_inverse_permutation(sym_.matrix());
-    ordering_.inverse_permutation.assign(inverse_permutation_.indices().data(),
-                                         inverse_permutation_.indices().data() +
-                                             inverse_permutation_.size());
     permute();
-    ordering_.fill = static_cast<double>(ldlt_.factor_nonzeros()) / matrix_nonzeros;
+    fill_ = static_cast<double>(ldlt_.factor_nonzeros()) / matrix_nonzeros;
   }
   void factorize(const SparseMatrix& A) override {
     sym_.update(A);
@@ -243,9 +240,12 @@ public:
     return inverse_permutation_ * y;
   }
   std::string name() const override { return "ldlt"; }
-  SolverOrdering ordering() const override { return ordering_; }
+  SolverOrdering ordering() const override {
+    const int* p = inverse_permutation_.indices().data();
+    return {std::vector<int>(p, p + inverse_permutation_.size()), fill_};
+  }
   void set_ordering(const SolverOrdering& o) override {
-    ordering_ = o;
+    fill_ = o.fill;
     inverse_permutation_.indices() = Eigen::Map<const Eigen::VectorXi>(
         o.inverse_permutation.data(), static_cast<Eigen::Index>(o.inverse_permutation.size()));
   }
@@ -271,10 +271,11 @@ private:
 
   SymmetricPart sym_;
   Permutation permutation_, inverse_permutation_;
-  SolverOrdering ordering_;
+  /// Nonzeros of L over those of S when METIS computed inverse_permutation_; 0: none yet.
+  double fill_ = 0;
   SparseMatrix permuted_;   ///< upper triangle of P S P^T, S the symmetric part
   std::vector<int> source_; ///< per entry of permuted_: the entry of S it takes
-  CountingLDLT<Eigen::NaturalOrdering<int>> ldlt_;
+  CountingLDLT ldlt_;
 };
 
 #ifdef YARNSIM_HAVE_MUMPS
