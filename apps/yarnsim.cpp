@@ -5,6 +5,8 @@
 #include "engine/output/checkpoint_file.hpp"
 #include "engine/run/check.hpp"
 #include "engine/run/run.hpp"
+#include "engine/solver/distributed.hpp"
+#include "engine/solver/petsc_solver.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/study/study.hpp"
 #include "yarnsim/version.hpp"
@@ -18,6 +20,10 @@
 #include <tbb/global_control.h>
 #include <thread>
 #include <unistd.h>
+#ifdef YARNSIM_HAVE_PETSC
+#include <mpi.h>
+#include <petscsys.h>
+#endif
 
 namespace {
 
@@ -46,6 +52,54 @@ extern "C" void on_signal(int) {
     _exit(130);
 }
 
+/// The MPI build: MPI (calls from the main thread only, oneTBB's workers never call it) and
+/// PETSc for the length of the program. PETSc reads its options from PETSC_OPTIONS (the command
+/// line is this program's); its signal handlers are left out (the run's own handle SIGINT and
+/// SIGTERM; a crash stays a crash). Nothing in the oneTBB build.
+class MpiSession {
+public:
+  MpiSession(int argc, char** argv) {
+#ifdef YARNSIM_HAVE_PETSC
+    int provided = 0;
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
+    int one = 1;
+    char* args[] = {argv[0], nullptr};
+    char** arg = args;
+    if (PetscInitialize(&one, &arg, nullptr, nullptr) != 0) {
+      fmt::print(stderr, "error: PETSc could not start\n");
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    // MUMPS's working space: 50 % over its analysis's estimate (its default, 20 %, ran out on
+    // indefinite tangents; linear_solver.cpp's MumpsSolver) unless PETSC_OPTIONS sets it.
+    PetscBool set = PETSC_FALSE;
+    PetscOptionsHasName(nullptr, nullptr, "-mat_mumps_icntl_14", &set);
+    if (!set)
+      PetscOptionsSetValue(nullptr, "-mat_mumps_icntl_14", "50");
+#else
+    (void)argc;
+    (void)argv;
+#endif
+  }
+  ~MpiSession() {
+#ifdef YARNSIM_HAVE_PETSC
+    PetscFinalize();
+    MPI_Finalize();
+#endif
+  }
+  /// Ends every process of the run at once with `code`: a failure the others may not share (the
+  /// leader's files), after which they would wait for it forever.
+  [[noreturn]] static void abort(int code) {
+#ifdef YARNSIM_HAVE_PETSC
+    MPI_Abort(MPI_COMM_WORLD, code);
+#endif
+    std::exit(code);
+  }
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+};
+
 std::string read_text(const std::filesystem::path& file) {
   std::ifstream in(file, std::ios::binary);
   std::ostringstream s;
@@ -56,6 +110,12 @@ std::string read_text(const std::filesystem::path& file) {
 } // namespace
 
 int main(int argc, char** argv) {
+  const MpiSession mpi(argc, argv);
+  const int rank = yarnsim::distributed::rank(), ranks = yarnsim::distributed::size();
+  // Over MPI the leader (rank 0) speaks and writes; the followers keep the same steps silently.
+  if (rank > 0 &&
+      (!std::freopen("/dev/null", "w", stdout) || !std::freopen("/dev/null", "w", stderr)))
+    MpiSession::abort(kFailure);
   CLI::App app{"yarnsim: yarn-scale simulation of dry woven textiles with geometrically exact "
                "beams and contact"};
   app.set_version_flag("--version", std::string("yarnsim ") + yarnsim::kVersion);
@@ -63,7 +123,9 @@ int main(int argc, char** argv) {
 
   std::string deck;
   std::string output;
-  int threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  // Over MPI, the machine's cores shared among its processes.
+  int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) /
+                                yarnsim::distributed::ranks_on_this_machine());
   std::string solver = "auto";
   bool quiet = false;
   bool timings = false;
@@ -77,9 +139,11 @@ int main(int argc, char** argv) {
                   "Linear solver: auto (default: lu with applied moments or friction, ldlt-gmres "
                   "with surface contact, otherwise ldlt, or mumps from 500 000 equations), lu "
                   "(UMFPACK), ldlt (the symmetric part), ldlt-gmres (the full tangent by GMRES "
-                  "on the symmetric part's LDL^T, lu where that does not converge) or mumps (the "
-                  "symmetric part by MUMPS, multifrontal)")
-      ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres", "mumps"}));
+                  "on the symmetric part's LDL^T, lu where that does not converge), mumps (the "
+                  "symmetric part by MUMPS, multifrontal) or petsc (the MPI build: the "
+                  "processes of an MPI run factorise together, MUMPS by default; auto's choice on "
+                  "more than one process)")
+      ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres", "mumps", "petsc"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
   run->add_flag("--timings", timings,
                 "At the end, the wall time of each stage of the Newton iterations (broad and "
@@ -128,6 +192,13 @@ int main(int argc, char** argv) {
     return code == 0 ? kSuccess : kBadInput;
   }
 
+  if (solver == "petsc" && !yarnsim::petsc_available()) {
+    fmt::print(stderr, "error: --linear-solver petsc: this build of yarnsim was made without MPI "
+                       "and PETSc (the MPI build: cmake -DYARNSIM_MPI=ON, scripts/test builds it "
+                       "in build-mpi/)\n");
+    return kBadInput;
+  }
+
   // One limit for every parallel part of the run (oneTBB; the solvers use no other pool).
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
                             static_cast<std::size_t>(threads));
@@ -135,6 +206,14 @@ int main(int argc, char** argv) {
     openblas_set_num_threads(1);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+
+  if (ranks > 1 && !run->parsed()) {
+    fmt::print(stderr,
+               "error: 'yarnsim {}' runs on one process; only 'yarnsim run' runs over MPI "
+               "(start it without mpirun)\n",
+               study->parsed() ? "study" : "check");
+    return kBadInput;
+  }
 
   if (study->parsed()) {
     const std::filesystem::path path(study_deck);
@@ -213,10 +292,12 @@ int main(int argc, char** argv) {
     options.stop_requested = &g_stop;
     options.restart_from = restart;
     options.stop_after = stop_after;
-    fmt::print(stderr, "yarnsim {}: {} ({} nodes, {} elements), {} thread(s), output in {}\n",
+    fmt::print(stderr, "yarnsim {}: {} ({} nodes, {} elements), {}{} thread(s), output in {}\n",
                yarnsim::kVersion, model.title.empty() ? deck_path.filename().string() : model.title,
-               model.nodes.size(), model.elements.size(), threads, out_dir.string());
-    const yarnsim::RunSummary s = yarnsim::run_model(model, options);
+               model.nodes.size(), model.elements.size(),
+               ranks > 1 ? fmt::format("{} processes of ", ranks) : "", threads, out_dir.string());
+    const yarnsim::RunSummary s =
+        rank == 0 ? yarnsim::run_model(model, options) : yarnsim::follow_model(model, options);
     fmt::print(stderr, "done: {} increments, {} Newton iterations in {:.2f} s; results in {}\n",
                s.increments, s.iterations, s.wall_seconds, out_dir.string());
     if (s.damping_dissipation > 0)
@@ -242,12 +323,16 @@ int main(int argc, char** argv) {
     return kNoConvergence;
   } catch (const yarnsim::Interrupted& e) {
     fmt::print(stderr,
-               "{}\nThe results in {} hold every completed increment; continue with\n  yarnsim "
+               "{}\nThe results in {} hold every completed increment; continue with\n  {}yarnsim "
                "run {} --restart {}\n",
-               e.what(), out_dir.string(), deck, out_dir.string());
+               e.what(), out_dir.string(), ranks > 1 ? fmt::format("mpirun -np {} ", ranks) : "",
+               deck, out_dir.string());
     return kInterrupted;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());
+    // Over MPI a failure of this kind may be the leader's alone (its files): end them all.
+    if (ranks > 1)
+      MpiSession::abort(kFailure);
     return kFailure;
   }
 }

@@ -825,11 +825,10 @@ output::NodeSection drawn_section(const Section& s, double element_length) {
   return {r, r, 2.0};
 }
 
-/// Reads the checkpoint of options.restart_from, checks it belongs to this deck, and puts the
-/// earlier run's results.h5, CSV files and checkpoint into the output folder when it is another
-/// one. Throws output::RestartError.
-output::StoredCheckpoint prepare_restart(const Model& model, const RunOptions& options,
-                                         const std::string& deck_hash) {
+/// Reads the checkpoint of options.restart_from and checks it belongs to this deck. Throws
+/// output::RestartError.
+output::StoredCheckpoint read_restart(const Model& model, const RunOptions& options,
+                                      const std::string& deck_hash) {
   const std::filesystem::path& from = options.restart_from;
   output::StoredCheckpoint c = output::read_checkpoint(from);
   if (c.outputs.deck_hash != deck_hash)
@@ -843,6 +842,15 @@ output::StoredCheckpoint prepare_restart(const Model& model, const RunOptions& o
         "cannot restart from {}: its checkpoint holds no surface contact state (contact '{}'; "
         "it was written by an earlier version, which did not save it)",
         from.string(), model.surface_contacts.front().name));
+  return c;
+}
+
+/// read_restart, then puts the earlier run's results.h5, CSV files and checkpoint into the
+/// output folder when it is another one. Throws output::RestartError.
+output::StoredCheckpoint prepare_restart(const Model& model, const RunOptions& options,
+                                         const std::string& deck_hash) {
+  output::StoredCheckpoint c = read_restart(model, options, deck_hash);
+  const std::filesystem::path& from = options.restart_from;
   const std::filesystem::path& to = options.output_dir;
   std::error_code ec;
   if (std::filesystem::exists(to) && std::filesystem::equivalent(from, to, ec))
@@ -978,6 +986,51 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
                 fmt::format("{} increments, {} Newton iterations, {:.3f} s, linear solver {}",
                             summary.increments, summary.iterations, summary.wall_seconds,
                             sim.linear_solver_name()));
+  return summary;
+}
+
+namespace {
+
+/// A follower's increments: nothing to write; --stop-after stops it where it stops the leader.
+class FollowerObserver final : public SimulationObserver {
+public:
+  FollowerObserver(const Model& model, int stop_after)
+      : t_end_(model.steps.back().end_time), stop_after_(stop_after) {}
+  void on_increment(const Simulation&, const IncrementReport& r) override {
+    const bool last = r.time >= t_end_ * (1 - 1e-12);
+    if (stop_after_ > 0 && r.increment >= stop_after_ && !last)
+      throw Interrupted(fmt::format("stopped at t = {:.6g} s after increment {} (--stop-after {})",
+                                    r.time, r.increment, stop_after_));
+  }
+
+private:
+  double t_end_;
+  int stop_after_;
+};
+
+} // namespace
+
+RunSummary follow_model(const Model& model, const RunOptions& options) {
+  const auto start = Clock::now();
+  std::optional<output::StoredCheckpoint> restart;
+  if (!options.restart_from.empty())
+    restart = read_restart(model, options, output::deck_fingerprint(options.deck_text, model));
+  const SimulationOptions sim_options{options.linear_solver, options.stop_requested};
+  const std::unique_ptr<Simulation> simulation =
+      restart ? std::make_unique<Simulation>(model, sim_options, restart->simulation)
+              : std::make_unique<Simulation>(model, sim_options);
+  Simulation& sim = *simulation;
+  FollowerObserver observer(model, options.stop_after);
+  sim.run(&observer);
+  RunSummary summary;
+  summary.increments = sim.state().increment;
+  summary.iterations = sim.total_iterations();
+  summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  summary.final_positions = sim.state().x_n;
+  if (sim.contact())
+    summary.final_contacts = sim.contact()->points();
+  summary.linear_solver = sim.linear_solver_name();
+  summary.stage_times = sim.stage_times();
   return summary;
 }
 

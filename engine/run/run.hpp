@@ -51,4 +51,9 @@ struct RunSummary {
 /// every completed increment is then on disk, with the checkpoint taken after it.
 RunSummary run_model(const Model& model, const RunOptions& options);
 
+/// A follower's share of an MPI run (distributed.hpp): the same steps as run_model on the
+/// leader (rank 0), in lockstep with it, writing nothing (options.output_dir and progress are
+/// not used; a restart reads options.restart_from). Throws as run_model, at the same point.
+RunSummary follow_model(const Model& model, const RunOptions& options);
+
 } // namespace yarnsim

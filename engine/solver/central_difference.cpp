@@ -882,7 +882,7 @@ void CentralDifference::run(SimulationObserver* observer) {
   const int every = std::max(1, step_.stable_dt_every);
   const int output_every = std::max(1, step_.output_every);
   while (time_ < step_.end_time * (1 - 1e-12)) {
-    if (sim_.options_.stop_requested && sim_.options_.stop_requested->load())
+    if (sim_.stop_requested())
       throw Interrupted(
           fmt::format("interrupted at t = {:.6g} s after increment {}", time_, st.increment));
     if (count_ > 0 && count_ % every == 0) {

@@ -1,4 +1,7 @@
 #include "engine/solver/linear_solver.hpp"
+#include "engine/solver/distributed.hpp"
+#include "engine/solver/petsc_solver.hpp"
+#include "engine/solver/symmetric_part.hpp"
 
 // Eigen's MetisSupport needs <iostream> before it (engineering-notes.md).
 #include <atomic>
@@ -12,6 +15,9 @@
 #include <fmt/format.h>
 #ifdef YARNSIM_HAVE_MUMPS
 #include <dmumps_c.h>
+#endif
+#ifdef YARNSIM_HAVE_MPI
+#include <mpi.h>
 #endif
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
@@ -74,51 +80,6 @@ public:
 
 private:
   Eigen::UmfPackLU<SparseMatrix> lu_;
-};
-
-/// The symmetric part (A + A^T) / 2 of a structurally symmetric matrix, refreshed in place: the
-/// transpose of each entry is found once per pattern.
-class SymmetricPart {
-public:
-  const SparseMatrix& matrix() const { return sym_; }
-  /// The columns are independent: in parallel (the same map on any thread count).
-  void analyze(const SparseMatrix& A) {
-    sym_ = A;
-    transpose_index_.assign(A.nonZeros(), -1);
-    std::atomic<bool> symmetric = true;
-    tbb::parallel_for(tbb::blocked_range<int>(0, static_cast<int>(A.outerSize()), 1024),
-                      [&](const tbb::blocked_range<int>& columns) {
-                        for (int col = columns.begin(); col < columns.end(); ++col)
-                          for (int k = A.outerIndexPtr()[col]; k < A.outerIndexPtr()[col + 1];
-                               ++k) {
-                            const int row = A.innerIndexPtr()[k];
-                            const int* begin = A.innerIndexPtr() + A.outerIndexPtr()[row];
-                            const int* end = A.innerIndexPtr() + A.outerIndexPtr()[row + 1];
-                            const int* hit = std::lower_bound(begin, end, col);
-                            if (hit == end || *hit != col)
-                              symmetric = false;
-                            else
-                              transpose_index_[k] = static_cast<int>(hit - A.innerIndexPtr());
-                          }
-                      });
-    if (!symmetric)
-      throw LinearSolverError("the matrix pattern is not structurally symmetric");
-  }
-  /// Entry by entry (memory bound, in parallel: each entry the same on any thread count).
-  void update(const SparseMatrix& A) {
-    const double* a = A.valuePtr();
-    double* s = sym_.valuePtr();
-    const int* t = transpose_index_.data();
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, A.nonZeros(), 1 << 15),
-                      [&](const tbb::blocked_range<Eigen::Index>& range) {
-                        for (Eigen::Index k = range.begin(); k < range.end(); ++k)
-                          s[k] = 0.5 * (a[k] + a[t[k]]);
-                      });
-  }
-
-private:
-  SparseMatrix sym_;
-  std::vector<int> transpose_index_;
 };
 
 /// Supernodal Cholesky LL^T of the symmetric part (CHOLMOD, METIS ordering): dense BLAS kernels
@@ -279,23 +240,35 @@ private:
 };
 
 #ifdef YARNSIM_HAVE_MUMPS
-/// LDL^T of the symmetric part by MUMPS (sequential library, symmetric indefinite: SYM = 2),
-/// multifrontal, its fronts on the BLAS behind libblas.so.3, on the METIS ordering
-/// SymmetricLDLTSolver uses, handed in (ICNTL(7) = 1). Analysed once per pattern; a
-/// factorisation gathers the symmetric part's lower triangle into MUMPS's coordinate arrays.
-/// docs/performance.md, "The factorisation: MUMPS against today's LDL^T": 1.18 times faster than
-/// `ldlt` at 412 000 equations and 1.67 times at 912 000, equal at 62 000 and 235 000.
+/// LDL^T of the symmetric part by MUMPS (symmetric indefinite: SYM = 2), multifrontal, its fronts
+/// on the BLAS behind libblas.so.3, on the METIS ordering SymmetricLDLTSolver uses, handed in
+/// (ICNTL(7) = 1). Analysed once per pattern; a factorisation gathers the symmetric part's lower
+/// triangle into MUMPS's coordinate arrays.
+/// - The oneTBB build: the sequential library, one process. docs/performance.md, "The
+///   factorisation: MUMPS against today's LDL^T": 1.18 times faster than `ldlt` at 412 000
+///   equations and 1.67 times at 912 000, equal at 62 000 and 235 000.
+/// - The MPI build: every process of the run factorises together (distributed.hpp). Each holds
+///   the whole tangent and hands MUMPS the lower triangle's entries of its share of the columns
+///   (distributed input, ICNTL(18) = 3); the host (rank 0) orders, takes the right-hand side and
+///   gets the solution, which it sends to the others: the same bits on every process. Collective.
 class MumpsSolver final : public LinearSolver {
 public:
   MumpsSolver() {
+#ifdef YARNSIM_HAVE_MPI
+    id_.comm_fortran = static_cast<MUMPS_INT>(MPI_Comm_c2f(MPI_COMM_WORLD));
+#else
     id_.comm_fortran = kSequentialCommunicator;
-    id_.par = 1; // the host works (the only process)
+#endif
+    id_.par = 1; // the host works too
     id_.sym = 2; // symmetric, not necessarily positive definite
     call(-1, "initialisation");
     icntl(1) = icntl(2) = icntl(3) = -1; // no messages
     icntl(4) = 0;
     icntl(7) = 1;   // the ordering given in perm_in
     icntl(14) = 50; // working space: 50 % over the analysis's estimate
+#ifdef YARNSIM_HAVE_MPI
+    icntl(18) = 3; // distributed assembled input: each process its share
+#endif
   }
   ~MumpsSolver() override {
     id_.job = -2;
@@ -307,16 +280,15 @@ public:
   void analyze(const SparseMatrix& A) override {
     sym_.analyze(A);
     const SparseMatrix& S = sym_.matrix();
-    {
-      const Permutation forward = metis_inverse_permutation(S).inverse();
-      perm_in_.resize(static_cast<std::size_t>(A.rows()));
-      for (Eigen::Index i = 0; i < A.rows(); ++i)
-        perm_in_[static_cast<std::size_t>(i)] = forward.indices()(i) + 1; // 1-based position
-    }
+    // This process's columns: all of them on one process, contiguous shares over MPI.
+    const int ranks = distributed::size(), rank = distributed::rank();
+    const auto first = [&](int r) {
+      return static_cast<int>(static_cast<long long>(S.outerSize()) * r / ranks);
+    };
     irn_.clear();
     jcn_.clear();
     source_.clear();
-    for (int col = 0; col < S.outerSize(); ++col)
+    for (int col = first(rank); col < first(rank + 1); ++col)
       for (int k = S.outerIndexPtr()[col]; k < S.outerIndexPtr()[col + 1]; ++k)
         if (S.innerIndexPtr()[k] >= col) { // lower triangle, 1-based coordinates
           irn_.push_back(S.innerIndexPtr()[k] + 1);
@@ -325,12 +297,43 @@ public:
         }
     values_.assign(source_.size(), 0.0);
     id_.n = static_cast<MUMPS_INT>(A.rows());
+#ifdef YARNSIM_HAVE_MPI
+    id_.nnz_loc = static_cast<MUMPS_INT8>(values_.size());
+    id_.irn_loc = irn_.data();
+    id_.jcn_loc = jcn_.data();
+    id_.a_loc = values_.data();
+#else
     id_.nnz = static_cast<MUMPS_INT8>(values_.size());
     id_.irn = irn_.data();
     id_.jcn = jcn_.data();
     id_.a = values_.data();
-    id_.perm_in = perm_in_.data();
-    call(1, "analysis");
+#endif
+    // The lower triangle's entries, all processes': the fill's denominator.
+    const double lower = 0.5 * static_cast<double>(S.nonZeros() + S.rows());
+    // A changed pattern keeps the last ordering while the factor's estimated entries (MUMPS's
+    // analysis, INFOG(20), the same on every process) stay within kOrderingFillGrowth of those
+    // it had when METIS computed it, as SymmetricLDLTSolver does; METIS orders it afresh
+    // otherwise. At 48 x 48 METIS takes about 1 s of each analysis.
+    if (ordering_.fill > 0 && ordering_.inverse_permutation.size() == std::size_t(A.rows())) {
+      analyse_with_ordering();
+      if (factor_entries() <= kOrderingFillGrowth * ordering_.fill * lower)
+        return;
+    }
+    if (distributed::rank() == 0) { // the host orders
+      const Permutation inverse = metis_inverse_permutation(S);
+      ordering_.inverse_permutation.assign(inverse.indices().data(),
+                                           inverse.indices().data() + inverse.size());
+    } else {
+      ordering_.inverse_permutation.assign(static_cast<std::size_t>(A.rows()), 0);
+    }
+    analyse_with_ordering();
+    ordering_.fill = factor_entries() / lower;
+  }
+  SolverOrdering ordering() const override {
+    return ordering_;
+  }
+  void set_ordering(const SolverOrdering& o) override {
+    ordering_ = o;
   }
   void factorize(const SparseMatrix& A) override {
     sym_.update(A);
@@ -339,6 +342,7 @@ public:
       values_[k] = s[source_[k]];
     // Delayed pivots of an indefinite matrix can need more working space than the analysis
     // estimated (INFOG(1) = -8 or -9): doubled, up to three times, as MUMPS's guide advises.
+    // INFOG is the same on every process, so they retry together.
     for (int retry = 0;; ++retry) {
       id_.job = 2;
       dmumps_c(&id_);
@@ -350,17 +354,44 @@ public:
     check("factorisation");
   }
   Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
-    Eigen::VectorXd x = b;
+    Eigen::VectorXd x = b; // the host's right-hand side, overwritten by the solution
     id_.rhs = x.data();
     call(3, "solve");
+#ifdef YARNSIM_HAVE_MPI
+    if (distributed::size() > 1)
+      MPI_Bcast(x.data(), static_cast<int>(x.size()), MPI_DOUBLE, 0, MPI_COMM_WORLD);
+#endif
     return x;
   }
-  std::string name() const override { return "mumps"; }
+  std::string name() const override {
+    return "mumps";
+  }
 
 private:
+#ifndef YARNSIM_HAVE_MPI
   /// The stand-in MPI library of the sequential MUMPS takes this for MPI_COMM_WORLD.
   static constexpr MUMPS_INT kSequentialCommunicator = -987654;
-  int& icntl(int i) { return id_.icntl[i - 1]; }
+#endif
+  int& icntl(int i) {
+    return id_.icntl[i - 1];
+  }
+  /// MUMPS's analysis on ordering_ (the host's perm_in: equation -> 1-based position).
+  void analyse_with_ordering() {
+    perm_in_.clear();
+    if (distributed::rank() == 0) {
+      perm_in_.resize(ordering_.inverse_permutation.size());
+      for (std::size_t position = 0; position < perm_in_.size(); ++position)
+        perm_in_[static_cast<std::size_t>(ordering_.inverse_permutation[position])] =
+            static_cast<MUMPS_INT>(position + 1);
+    }
+    id_.perm_in = perm_in_.empty() ? nullptr : perm_in_.data();
+    call(1, "analysis");
+  }
+  /// The factor's entries MUMPS's analysis estimates (INFOG(20); negative: millions).
+  double factor_entries() const {
+    const double e = id_.infog[19];
+    return e < 0 ? -e * 1e6 : e;
+  }
   void call(int job, const char* what) {
     id_.job = job;
     dmumps_c(&id_);
@@ -379,8 +410,11 @@ private:
   DMUMPS_STRUC_C id_{};
   SymmetricPart sym_;
   std::vector<MUMPS_INT> irn_, jcn_, perm_in_;
-  std::vector<int> source_;    ///< per lower-triangle entry: the entry of S it takes
-  std::vector<double> values_; ///< the lower triangle's values, MUMPS's `a`
+  std::vector<int> source_;    ///< per lower-triangle entry of this process: the entry of S
+  std::vector<double> values_; ///< those entries' values, MUMPS's `a` (or `a_loc`)
+  /// The ordering in use (the host's; zeros on the others) and its fill: the factor's estimated
+  /// entries over the lower triangle's when METIS computed it; 0: none yet.
+  SolverOrdering ordering_;
 };
 #endif
 
@@ -547,7 +581,9 @@ private:
   bool empty_ = false;
 };
 
-std::unique_ptr<LinearSolver> make_solver(LinearSolverKind kind) {
+std::unique_ptr<LinearSolver> make_solver(LinearSolverKind kind, bool symmetric_tangent) {
+  if (kind == LinearSolverKind::PETSc)
+    return make_petsc_solver(symmetric_tangent);
   if (kind == LinearSolverKind::LU)
     return std::make_unique<UmfpackSolver>();
   if (kind == LinearSolverKind::Cholmod)
@@ -567,10 +603,10 @@ std::unique_ptr<LinearSolver> make_solver(LinearSolverKind kind) {
 
 } // namespace
 
-std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind) {
+std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind, bool symmetric_tangent) {
   if (kind == LinearSolverKind::Auto)
     throw std::invalid_argument("make_linear_solver: resolve 'auto' against the model first");
-  return std::make_unique<EmptySystemGuard>(make_solver(kind));
+  return std::make_unique<EmptySystemGuard>(make_solver(kind, symmetric_tangent));
 }
 
 bool mumps_available() {
@@ -594,9 +630,11 @@ LinearSolverKind linear_solver_kind_from(const std::string& name) {
     return LinearSolverKind::LDLTGmres;
   if (name == "mumps")
     return LinearSolverKind::MUMPS;
+  if (name == "petsc")
+    return LinearSolverKind::PETSc;
   throw std::invalid_argument("unknown linear solver '" + name +
-                              "' (expected 'auto', 'lu', 'ldlt', 'ldlt-gmres', 'mumps' or "
-                              "'cholmod')");
+                              "' (expected 'auto', 'lu', 'ldlt', 'ldlt-gmres', 'mumps', "
+                              "'cholmod' or 'petsc')");
 }
 
 } // namespace yarnsim

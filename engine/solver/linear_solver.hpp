@@ -34,7 +34,11 @@ enum class LinearSolverKind {
   LDLTGmres,
   /// LDL^T of the symmetric part by MUMPS (sequential, multifrontal) on the same METIS ordering;
   /// `auto`'s choice for `ldlt`'s models from kMumpsEquations equations on, where MUMPS is built.
-  MUMPS
+  MUMPS,
+  /// The tangent factorised by the processes of an MPI run together, through PETSc (MUMPS by
+  /// default: LDL^T of the symmetric part, or LU where the tangent is far from symmetric);
+  /// `auto`'s choice on more than one process. The build with YARNSIM_MPI (petsc_solver.hpp).
+  PETSc
 };
 
 /// Free equations from which `auto` takes MUMPS instead of `ldlt` (docs/performance.md, "The
@@ -77,9 +81,12 @@ public:
   virtual void set_ordering(const SolverOrdering&) {}
 };
 
-std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind);
-/// "auto", "lu", "ldlt", "ldlt-gmres", "mumps" or "cholmod". Throws std::invalid_argument for any
-/// other name.
+/// symmetric_tangent: the kinds that choose between the symmetric part and the full tangent
+/// (PETSc) take the symmetric part.
+std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind,
+                                                 bool symmetric_tangent = true);
+/// "auto", "lu", "ldlt", "ldlt-gmres", "mumps", "cholmod" or "petsc". Throws std::invalid_argument
+/// for any other name.
 LinearSolverKind linear_solver_kind_from(const std::string& name);
 
 } // namespace yarnsim

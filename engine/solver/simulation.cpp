@@ -4,6 +4,7 @@
 #include "engine/beam/nodal_terms.hpp"
 #include "engine/math/rotation.hpp"
 #include "engine/solver/checkpoint.hpp"
+#include "engine/solver/distributed.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -72,15 +73,23 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
     }
   assembler_ = std::make_unique<Assembler>(model, constrained);
   LinearSolverKind kind = options.linear_solver;
+  const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
+                                   [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
+  // Friction (contact/friction.hpp) and applied moments make the tangent far from symmetric.
+  // Surface contact near a node between elements carries a share of the force whose derivative
+  // makes it a little non-symmetric (contact::SurfaceContactOptions::end_window).
+  const bool far_from_symmetric = moments || has_friction(model);
+  const bool symmetric_tangent = !far_from_symmetric && model.surface_contacts.empty();
   if (kind == LinearSolverKind::Auto) {
-    const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
-                                     [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
-    // Friction (contact/friction.hpp) and applied moments make the tangent far from symmetric:
-    // LU. Surface contact near a node between elements carries a share of the force whose
-    // derivative makes it a little non-symmetric (contact::SurfaceContactOptions::end_window):
-    // GMRES on the symmetric part's LDL^T solves it, falling back to LU where the contact forces
-    // have made it too far from symmetric (docs/performance.md, "The surface contact at scale").
-    if (moments || has_friction(model))
+    // Far from symmetric: LU. A little non-symmetric: GMRES on the symmetric part's LDL^T
+    // solves it, falling back to LU where the contact forces have made it too far from
+    // symmetric (docs/performance.md, "The surface contact at scale"). Over several processes
+    // they factorise together: MUMPS's LDL^T of a symmetric tangent, PETSc's LU (MUMPS) of the
+    // others (docs/performance.md, "Runs over MPI").
+    if (distributed::size() > 1)
+      kind = symmetric_tangent && mumps_available() ? LinearSolverKind::MUMPS
+                                                    : LinearSolverKind::PETSc;
+    else if (far_from_symmetric)
       kind = LinearSolverKind::LU;
     else if (!model.surface_contacts.empty())
       kind = LinearSolverKind::LDLTGmres;
@@ -89,7 +98,7 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
     else
       kind = LinearSolverKind::LDLTSymmetric;
   }
-  solver_ = make_linear_solver(kind);
+  solver_ = make_linear_solver(kind, symmetric_tangent);
   contact_ = ContactStage::of(model);
   solver_name_ = solver_->name();
 
@@ -629,7 +638,8 @@ double Simulation::scaled_norm(const Eigen::VectorXd& v) const {
 }
 
 bool Simulation::stop_requested() const {
-  return options_.stop_requested && options_.stop_requested->load();
+  // Over MPI every process stops at the same point, where any of them was asked to.
+  return distributed::any(options_.stop_requested && options_.stop_requested->load());
 }
 
 void Simulation::throw_interrupted() const {

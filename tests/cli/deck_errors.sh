@@ -40,7 +40,12 @@ check no-such-file 2 "no-such-file.toml"
 # eigen-lu is no longer a choice: CLI11 refuses it and lists the valid ones.
 "$yarnsim" run "$repo/examples/rollup.toml" -o eigen-lu -q --linear-solver eigen-lu > eigen-lu.log 2>&1
 [ $? -eq 2 ] || { echo "FAIL --linear-solver eigen-lu: exit not 2"; cat eigen-lu.log; fail=1; }
-grep -q "eigen-lu not in {auto,lu,ldlt,ldlt-gmres,mumps}" eigen-lu.log || { echo "FAIL --linear-solver eigen-lu: message does not list the choices"; cat eigen-lu.log; fail=1; }
+grep -q "eigen-lu not in {auto,lu,ldlt,ldlt-gmres,mumps,petsc}" eigen-lu.log || { echo "FAIL --linear-solver eigen-lu: message does not list the choices"; cat eigen-lu.log; fail=1; }
 [ -e eigen-lu ] && { echo "FAIL --linear-solver eigen-lu: an output folder was made"; fail=1; }
+# petsc is the MPI build's (this suite runs in the default build): refused, exit 2, saying where.
+"$yarnsim" run "$repo/examples/rollup.toml" -o petsc -q --linear-solver petsc > petsc.log 2>&1
+[ $? -eq 2 ] || { echo "FAIL --linear-solver petsc: exit not 2"; cat petsc.log; fail=1; }
+grep -q "made without MPI and PETSc.*YARNSIM_MPI" petsc.log || { echo "FAIL --linear-solver petsc: the message does not say where it is"; cat petsc.log; fail=1; }
+[ -e petsc ] && { echo "FAIL --linear-solver petsc: an output folder was made"; fail=1; }
 if [ "$fail" -eq 0 ]; then echo "deck errors: all checks passed"; fi
 exit "$fail"

@@ -1,0 +1,250 @@
+#include "engine/solver/petsc_solver.hpp"
+
+#include <stdexcept>
+
+#ifdef YARNSIM_HAVE_PETSC
+#include "engine/solver/distributed.hpp"
+#include "engine/solver/symmetric_part.hpp"
+
+#include <algorithm>
+#include <fmt/format.h>
+#include <petscksp.h>
+// PetscObjectStateIncrease (developer level): the values written into the blocks directly.
+#include <petsc/private/petscimpl.h>
+#include <vector>
+#endif
+
+namespace yarnsim {
+
+#ifdef YARNSIM_HAVE_PETSC
+namespace {
+
+/// A PETSc call's error as a LinearSolverError naming the call (the run's error handler returns
+/// errors instead of printing them: apps/yarnsim.cpp).
+void check(PetscErrorCode code, const char* call) {
+  if (code == 0)
+    return;
+  const char* text = nullptr;
+  PetscErrorMessage(code, &text, nullptr);
+  throw LinearSolverError(
+      fmt::format("PETSc: {} failed: {} (error {})", call, text ? text : "", int(code)));
+}
+
+/// The processes' shares of the equations: contiguous blocks, sizes differing by at most one.
+PetscInt first_row(PetscInt n, int rank, int size) {
+  return static_cast<PetscInt>(static_cast<long long>(n) * rank / size);
+}
+
+class PetscSolver final : public LinearSolver {
+public:
+  explicit PetscSolver(bool symmetric) : symmetric_(symmetric) {}
+  ~PetscSolver() override { release(); }
+  PetscSolver(const PetscSolver&) = delete;
+  PetscSolver& operator=(const PetscSolver&) = delete;
+
+  /// A new pattern: PETSc's matrix, vectors and solver are made afresh; the entries of this
+  /// process's rows are found once, in the order of PETSc's arrays (diagonal block, then the
+  /// off-diagonal block's columns in ascending order, both sorted within a row), so that a
+  /// factorisation copies values without a search.
+  void analyze(const SparseMatrix& A) override {
+    release();
+    if (symmetric_)
+      sym_.analyze(A);
+    const SparseMatrix& M = symmetric_ ? sym_.matrix() : A;
+    const PetscInt n = static_cast<PetscInt>(M.rows());
+    const int rank = distributed::rank(), size = distributed::size();
+    begin_ = first_row(n, rank, size);
+    end_ = first_row(n, rank + 1, size);
+    const PetscInt m = end_ - begin_;
+
+    // This process's rows of the column-major M: (row, column, index into M's values).
+    struct Entry {
+      PetscInt row, col;
+      int k;
+    };
+    std::vector<Entry> entries;
+    for (int col = 0; col < M.outerSize(); ++col)
+      for (int k = M.outerIndexPtr()[col]; k < M.outerIndexPtr()[col + 1]; ++k) {
+        const int row = M.innerIndexPtr()[k];
+        if (row >= begin_ && row < end_)
+          entries.push_back({row, col, k});
+      }
+    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+      return a.row != b.row ? a.row < b.row : a.col < b.col;
+    });
+    std::vector<PetscInt> diagonal(static_cast<std::size_t>(m), 0), off(diagonal);
+    for (const Entry& e : entries)
+      ++(e.col >= begin_ && e.col < end_ ? diagonal
+                                         : off)[static_cast<std::size_t>(e.row - begin_)];
+
+    check(MatCreate(PETSC_COMM_WORLD, &matrix_), "MatCreate");
+    check(MatSetSizes(matrix_, m, m, n, n), "MatSetSizes");
+    check(MatSetType(matrix_, MATAIJ), "MatSetType");
+    check(MatSeqAIJSetPreallocation(matrix_, 0, diagonal.data()), "MatSeqAIJSetPreallocation");
+    check(MatMPIAIJSetPreallocation(matrix_, 0, diagonal.data(), 0, off.data()),
+          "MatMPIAIJSetPreallocation");
+    check(MatSetOption(matrix_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
+    if (symmetric_) {
+      check(MatSetOption(matrix_, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
+      check(MatSetOption(matrix_, MAT_SYMMETRY_ETERNAL, PETSC_TRUE), "MatSetOption");
+    }
+    // The pattern, row by row (zeros); the values come with each factorisation.
+    std::vector<PetscInt> cols;
+    std::vector<PetscScalar> zeros;
+    for (std::size_t a = 0; a < entries.size();) {
+      std::size_t b = a;
+      cols.clear();
+      while (b < entries.size() && entries[b].row == entries[a].row)
+        cols.push_back(entries[b++].col);
+      zeros.assign(cols.size(), 0.0);
+      const PetscInt row = entries[a].row;
+      check(MatSetValues(matrix_, 1, &row, static_cast<PetscInt>(cols.size()), cols.data(),
+                         zeros.data(), INSERT_VALUES),
+            "MatSetValues");
+      a = b;
+    }
+    check(MatAssemblyBegin(matrix_, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+    check(MatAssemblyEnd(matrix_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+
+    // PETSc's local arrays: one block (sequential AIJ) on one process; the diagonal and the
+    // off-diagonal blocks on several, the latter's columns compressed in ascending order.
+    diagonal_source_.clear();
+    off_source_.clear();
+    for (const Entry& e : entries)
+      (e.col >= begin_ && e.col < end_ ? diagonal_source_ : off_source_).push_back(e.k);
+    Mat diagonal_block = matrix_, off_block = nullptr;
+    if (size > 1)
+      check(MatMPIAIJGetSeqAIJ(matrix_, &diagonal_block, &off_block, nullptr),
+            "MatMPIAIJGetSeqAIJ");
+    check_block(diagonal_block, diagonal_source_.size(), "diagonal");
+    if (off_block)
+      check_block(off_block, off_source_.size(), "off-diagonal");
+    else if (!off_source_.empty())
+      throw LinearSolverError("PETSc: a one-process matrix with entries off its diagonal block");
+    diagonal_block_ = diagonal_block;
+    off_block_ = off_block;
+
+    check(MatCreateVecs(matrix_, &x_, &b_), "MatCreateVecs");
+    check(VecScatterCreateToAll(x_, &gather_, &x_all_), "VecScatterCreateToAll");
+    check(KSPCreate(PETSC_COMM_WORLD, &ksp_), "KSPCreate");
+    check(KSPSetOperators(ksp_, matrix_, matrix_), "KSPSetOperators");
+    // A direct solve by default: MUMPS's LDL^T (Cholesky of a matrix not flagged positive
+    // definite: SYM = 2) or LU. PETSc's options (PETSC_OPTIONS, e.g. "-pc_factor_mat_solver_type
+    // superlu_dist" or "-ksp_type gmres -pc_type gamg") override it.
+    check(KSPSetType(ksp_, KSPPREONLY), "KSPSetType");
+    PC pc;
+    check(KSPGetPC(ksp_, &pc), "KSPGetPC");
+    check(PCSetType(pc, symmetric_ ? PCCHOLESKY : PCLU), "PCSetType");
+    check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+    check(KSPSetFromOptions(ksp_), "KSPSetFromOptions");
+  }
+
+  void factorize(const SparseMatrix& A) override {
+    if (symmetric_)
+      sym_.update(A);
+    const double* values = symmetric_ ? sym_.matrix().valuePtr() : A.valuePtr();
+    fill(diagonal_block_, diagonal_source_, values);
+    if (off_block_)
+      fill(off_block_, off_source_, values);
+    check(PetscObjectStateIncrease(reinterpret_cast<PetscObject>(matrix_)),
+          "PetscObjectStateIncrease");
+    // The numeric factorisation here (PCSetUp sees the matrix's new state; KSPSolve then finds
+    // it done), the symbolic one too after a new pattern.
+    PC pc;
+    check(KSPGetPC(ksp_, &pc), "KSPGetPC");
+    check(KSPSetUp(ksp_), "KSPSetUp");
+    check(PCSetUp(pc), "PCSetUp");
+    PCFailedReason reason = PC_NOERROR;
+    check(PCGetFailedReason(pc, &reason), "PCGetFailedReason");
+    // MUMPS reports a failure to every process; agreed here all the same, since the caller
+    // drops the attempt on every process or on none.
+    if (distributed::any(reason != PC_NOERROR))
+      throw LinearSolverError(fmt::format(
+          "PETSc factorisation failed ({}): the tangent is singular, not finite, or the "
+          "factorisation ran out of memory",
+          reason != PC_NOERROR ? PCFailedReasons[reason] : "on another process"));
+  }
+
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
+    PetscScalar* local = nullptr;
+    check(VecGetArray(b_, &local), "VecGetArray");
+    std::copy(b.data() + begin_, b.data() + end_, local);
+    check(VecRestoreArray(b_, &local), "VecRestoreArray");
+    check(KSPSolve(ksp_, b_, x_), "KSPSolve");
+    KSPConvergedReason reason;
+    check(KSPGetConvergedReason(ksp_, &reason), "KSPGetConvergedReason");
+    Eigen::VectorXd x(b.size());
+    if (reason < 0) { // the caller drops the attempt on a non-finite solution
+      x.setConstant(std::numeric_limits<double>::quiet_NaN());
+      return x;
+    }
+    // The whole solution on every process, the same bits on each.
+    check(VecScatterBegin(gather_, x_, x_all_, INSERT_VALUES, SCATTER_FORWARD), "VecScatterBegin");
+    check(VecScatterEnd(gather_, x_, x_all_, INSERT_VALUES, SCATTER_FORWARD), "VecScatterEnd");
+    const PetscScalar* all = nullptr;
+    check(VecGetArrayRead(x_all_, &all), "VecGetArrayRead");
+    std::copy(all, all + b.size(), x.data());
+    check(VecRestoreArrayRead(x_all_, &all), "VecRestoreArrayRead");
+    return x;
+  }
+
+  std::string name() const override { return "petsc"; }
+
+private:
+  /// The block's stored entries must be this process's entries that fall in it, one each.
+  static void check_block(Mat block, std::size_t expected, const char* which) {
+    MatInfo info;
+    check(MatGetInfo(block, MAT_LOCAL, &info), "MatGetInfo");
+    if (static_cast<std::size_t>(info.nz_used) != expected)
+      throw LinearSolverError(fmt::format("PETSc: the {} block holds {} entries, expected {}",
+                                          which, info.nz_used, expected));
+  }
+  static void fill(Mat block, const std::vector<int>& source, const double* values) {
+    PetscScalar* a = nullptr;
+    check(MatSeqAIJGetArray(block, &a), "MatSeqAIJGetArray");
+    for (std::size_t i = 0; i < source.size(); ++i)
+      a[i] = values[source[i]];
+    check(MatSeqAIJRestoreArray(block, &a), "MatSeqAIJRestoreArray");
+  }
+  void release() {
+    KSPDestroy(&ksp_);
+    VecScatterDestroy(&gather_);
+    VecDestroy(&x_all_);
+    VecDestroy(&x_);
+    VecDestroy(&b_);
+    MatDestroy(&matrix_);
+    diagonal_block_ = off_block_ = nullptr;
+  }
+
+  bool symmetric_;
+  SymmetricPart sym_;
+  PetscInt begin_ = 0, end_ = 0; ///< this process's rows [begin_, end_)
+  Mat matrix_ = nullptr;
+  Mat diagonal_block_ = nullptr, off_block_ = nullptr; ///< matrix_'s local blocks (not owned)
+  std::vector<int> diagonal_source_, off_source_;      ///< per entry of a block: the index in M
+  Vec b_ = nullptr, x_ = nullptr, x_all_ = nullptr;
+  VecScatter gather_ = nullptr;
+  KSP ksp_ = nullptr;
+};
+
+} // namespace
+
+bool petsc_available() {
+  return true;
+}
+
+std::unique_ptr<LinearSolver> make_petsc_solver(bool symmetric) {
+  return std::make_unique<PetscSolver>(symmetric);
+}
+#else
+bool petsc_available() {
+  return false;
+}
+
+std::unique_ptr<LinearSolver> make_petsc_solver(bool) {
+  throw std::invalid_argument("the linear solver 'petsc' is not available: this build of yarnsim "
+                              "was made without MPI and PETSc (cmake -DYARNSIM_MPI=ON)");
+}
+#endif
+
+} // namespace yarnsim

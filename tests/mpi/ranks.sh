@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# mpirun -np 1, 2 and 3 (oversubscribed) on the paper's 6 x 6 biaxial test and a 12 x 12 weave:
+# the same curves, monitor rows, positions and contact forces at every step as the one-process
+# run of the oneTBB path (`ldlt`), within 1e-10 relative, with the solver auto takes over MPI
+# (MUMPS's LDL^T) and with PETSc's (`petsc`). Only rank 0 speaks: one start line, one done line.
+# Usage: ranks.sh YARNSIM REPO WORKDIR
+set -u
+yarnsim="$1"; repo="$2"; work="$3"
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+compare="$(dirname "${BASH_SOURCE[0]}")/compare_runs.py"
+python=/usr/bin/python3 # Debian's, with python3-h5py (scripts/test installs it)
+require_tools mpirun
+rm -rf "$work"; mkdir -p "$work"; cd "$work"
+fail=0
+cp "$repo/examples/biaxial-k1.toml" w6.toml
+weave_deck 12 w12.toml
+
+for deck in w6 w12; do
+  "$yarnsim" run "$deck.toml" -o "$deck-ref" -q --linear-solver ldlt > "$deck-ref.log" 2>&1 ||
+    { echo "FAIL $deck: the one-process run failed"; cat "$deck-ref.log"; fail=1; continue; }
+  runs=("1 auto" "2 auto" "3 auto" "2 petsc")
+  [ "$deck" = w6 ] && runs+=("1 mumps" "1 petsc" "3 petsc")
+  for r in "${runs[@]}"; do
+    set -- $r
+    out="$deck-np$1-$2"
+    mpi "$1" run "$deck.toml" -o "$out" -q --linear-solver "$2" > "$out.log" 2>&1
+    code=$?
+    [ "$code" -eq 0 ] || { echo "FAIL $out: exit $code"; cat "$out.log"; fail=1; continue; }
+    [ "$(grep -c '^done:' "$out.log")" -eq 1 ] && [ "$(grep -c '^yarnsim ' "$out.log")" -eq 1 ] ||
+      { echo "FAIL $out: not one start and one done line"; cat "$out.log"; fail=1; }
+    if [ "$1" -gt 1 ]; then
+      grep -q "$1 processes of" "$out.log" || { echo "FAIL $out: the processes are not named"; fail=1; }
+    fi
+    "$python" "$compare" "$deck-ref" "$out" 1e-10 || { echo "FAIL $out: differs from the one-process run"; fail=1; }
+  done
+done
+# What the runs used: MUMPS over MPI by default, PETSc where asked.
+for r in w12-np2-auto:mumps w6-np3-petsc:petsc; do
+  h5dump -A "${r%%:*}/results.h5" | grep -q "linear solver ${r#*:}\"" ||
+    { echo "FAIL ${r%%:*}: its results do not name the linear solver ${r#*:}"; fail=1; }
+done
+[ "$fail" -eq 0 ] && echo "PASS: 1, 2 and 3 processes give the one-process run's results"
+exit "$fail"
