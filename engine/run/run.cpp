@@ -825,6 +825,23 @@ output::NodeSection drawn_section(const Section& s, double element_length) {
   return {r, r, 2.0};
 }
 
+/// What a completed run reports: its size, wall time since start, end state and energies.
+RunSummary summarise(const Simulation& sim, Clock::time_point start) {
+  RunSummary summary;
+  summary.increments = sim.state().increment;
+  summary.iterations = sim.total_iterations();
+  summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  summary.final_positions = sim.state().x_n;
+  if (sim.contact())
+    summary.final_contacts = sim.contact()->points();
+  summary.linear_solver = sim.linear_solver_name();
+  const EnergyBalance energy = sim.energy_balance();
+  summary.damping_dissipation = energy.damping;
+  summary.stored_energy = energy.internal + energy.contact;
+  summary.stage_times = sim.stage_times();
+  return summary;
+}
+
 /// Reads the checkpoint of options.restart_from and checks it belongs to this deck. Throws
 /// output::RestartError.
 output::StoredCheckpoint read_restart(const Model& model, const RunOptions& options,
@@ -970,18 +987,7 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
     throw;
   }
   observer.finish();
-  RunSummary summary;
-  summary.increments = sim.state().increment;
-  summary.iterations = sim.total_iterations();
-  summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  summary.final_positions = sim.state().x_n;
-  if (sim.contact())
-    summary.final_contacts = sim.contact()->points();
-  summary.linear_solver = sim.linear_solver_name();
-  const EnergyBalance energy = sim.energy_balance();
-  summary.damping_dissipation = energy.damping;
-  summary.stored_energy = energy.internal + energy.contact;
-  summary.stage_times = sim.stage_times();
+  const RunSummary summary = summarise(sim, start);
   results.close("completed",
                 fmt::format("{} increments, {} Newton iterations, {:.3f} s, linear solver {}",
                             summary.increments, summary.iterations, summary.wall_seconds,
@@ -1022,16 +1028,7 @@ RunSummary follow_model(const Model& model, const RunOptions& options) {
   Simulation& sim = *simulation;
   FollowerObserver observer(model, options.stop_after);
   sim.run(&observer);
-  RunSummary summary;
-  summary.increments = sim.state().increment;
-  summary.iterations = sim.total_iterations();
-  summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  summary.final_positions = sim.state().x_n;
-  if (sim.contact())
-    summary.final_contacts = sim.contact()->points();
-  summary.linear_solver = sim.linear_solver_name();
-  summary.stage_times = sim.stage_times();
-  return summary;
+  return summarise(sim, start);
 }
 
 } // namespace yarnsim

@@ -6,6 +6,7 @@
 set -u
 yarnsim="$1"; repo="$2"; work="$3"
 source "$(dirname "${BASH_SOURCE[0]}")/lib/results.sh"
+source "$(dirname "${BASH_SOURCE[0]}")/lib/decks.sh"
 require_tools h5ls h5dump xmllint
 rm -rf "$work"; mkdir -p "$work"; cd "$work"
 fail=0
@@ -42,23 +43,10 @@ check_status_message() { # name
 no_convergence='no convergence in [0-9]+ iterations'
 worst='worst: node [0-9]+ DOF (ux|uy|uz|rx|ry|rz)'
 
-# 1. Static, two steps: the first completes (5 increments to t = 0.25 s), the second meets a load
-# jumping a hundredfold within 0.05 s with 6 Newton iterations and dt_min = dt / 5 allowed.
-sed -e 's/^table = .*/table = [[0.0, 0.0], [0.25, 0.25], [0.3, 100.0], [1.0, 100.0]]/' \
-  "$repo/examples/rollup.toml" | sed '/^\[\[steps\]\]/,$d' > static.toml
+# 1. The roll-up deck that cannot converge (lib/decks.sh): static, two steps, the first completes,
+# the second meets a load jumping a hundredfold; with monitors.
+diverging_rollup_deck "$repo" static.toml
 cat >> static.toml << 'EOF'
-[[steps]]
-type = "static"
-end_time = 0.25
-dt = 0.05
-max_iterations = 30
-
-[[steps]]
-type = "static"
-end_time = 1.0
-dt = 0.05
-dt_min = 0.01
-max_iterations = 6
 
 [[monitors]]
 name = "tip"

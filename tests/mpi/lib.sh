@@ -1,12 +1,14 @@
 # Shared by the MPI tests: mpirun as CI runs it (as root, in a container, on 2 cores: three
 # processes oversubscribe them), and a 12 x 12 weave deck made from the paper's 6 x 6.
+# OpenMPI makes oversubscribed processes yield while they wait by itself; asking for it always
+# (mpi_yield_when_idle = 1) made 2 processes sharing the cores with other work 50 times slower.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMPI_MCA_rmaps_base_oversubscribe=1       # more processes than cores
 export OMPI_MCA_btl_vader_single_copy_mechanism=none # containers: no cross-memory attach
-export OMPI_MCA_mpi_yield_when_idle=1            # oversubscribed: waiting processes yield
 export OPENBLAS_NUM_THREADS=1
 
 source "$(dirname "${BASH_SOURCE[0]}")/../cli/lib/results.sh"
+source "$(dirname "${BASH_SOURCE[0]}")/../cli/lib/decks.sh"
 
 # mpirun -np N yarnsim ARGS...
 mpi() { # N args...
