@@ -62,6 +62,10 @@ public:
 #ifdef YARNSIM_HAVE_PETSC
     int provided = 0;
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    if (provided < MPI_THREAD_FUNNELED) { // oneTBB's workers run beside the main thread's calls
+      fmt::print(stderr, "error: this MPI library gives no MPI_THREAD_FUNNELED support\n");
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
     PetscOptionsSetValue(nullptr, "-no_signal_handler", nullptr);
     int one = 1;
     char* args[] = {argv[0], nullptr};
@@ -71,12 +75,6 @@ public:
       MPI_Abort(MPI_COMM_WORLD, 1);
     }
     PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
-    // MUMPS's working space: 50 % over its analysis's estimate (its default, 20 %, ran out on
-    // indefinite tangents; linear_solver.cpp's MumpsSolver) unless PETSC_OPTIONS sets it.
-    PetscBool set = PETSC_FALSE;
-    PetscOptionsHasName(nullptr, nullptr, "-mat_mumps_icntl_14", &set);
-    if (!set)
-      PetscOptionsSetValue(nullptr, "-mat_mumps_icntl_14", "50");
 #else
     (void)argc;
     (void)argv;
@@ -112,10 +110,16 @@ std::string read_text(const std::filesystem::path& file) {
 int main(int argc, char** argv) {
   const MpiSession mpi(argc, argv);
   const int rank = yarnsim::distributed::rank(), ranks = yarnsim::distributed::size();
-  // Over MPI the leader (rank 0) speaks and writes; the followers keep the same steps silently.
-  if (rank > 0 &&
-      (!std::freopen("/dev/null", "w", stdout) || !std::freopen("/dev/null", "w", stderr)))
-    MpiSession::abort(kFailure);
+  // Over MPI the leader (rank 0) speaks and writes; the followers keep the same steps silently,
+  // keeping their own stderr (own_stderr) for a failure only they may meet.
+  FILE* own_stderr = stderr;
+  if (rank > 0) {
+    const int fd = dup(fileno(stderr));
+    own_stderr = fd >= 0 ? fdopen(fd, "w") : nullptr;
+    if (!own_stderr || !std::freopen("/dev/null", "w", stdout) ||
+        !std::freopen("/dev/null", "w", stderr))
+      MpiSession::abort(kFailure);
+  }
   CLI::App app{"yarnsim: yarn-scale simulation of dry woven textiles with geometrically exact "
                "beams and contact"};
   app.set_version_flag("--version", std::string("yarnsim ") + yarnsim::kVersion);
@@ -316,6 +320,9 @@ int main(int argc, char** argv) {
     return kBadInput;
   } catch (const yarnsim::output::RestartError& e) {
     fmt::print(stderr, "error: {}\n", e.what());
+    // Over MPI the leader alone copies the earlier run's files: its failure ends every process.
+    if (ranks > 1)
+      MpiSession::abort(kBadInput);
     return kBadInput;
   } catch (const yarnsim::ConvergenceError& e) {
     fmt::print(stderr, "error: {}\nThe results in {} hold every completed increment.\n", e.what(),
@@ -330,9 +337,13 @@ int main(int argc, char** argv) {
     return kInterrupted;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());
-    // Over MPI a failure of this kind may be the leader's alone (its files): end them all.
-    if (ranks > 1)
+    // Over MPI a failure of this kind may be one process's alone (the leader's files): said by
+    // that process, then every process ends.
+    if (ranks > 1) {
+      if (rank > 0)
+        fmt::print(own_stderr, "error (process {}): {}\n", rank, e.what());
       MpiSession::abort(kFailure);
+    }
     return kFailure;
   }
 }

@@ -33,6 +33,14 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+/// --stop-after N (0: none): stops the run, as interrupted, after the first increment at or
+/// beyond increment N unless it is the run's last.
+void stop_after(int n, const IncrementReport& r, bool last) {
+  if (n > 0 && r.increment >= n && !last)
+    throw Interrupted(fmt::format("stopped at t = {:.6g} s after increment {} (--stop-after {})",
+                                  r.time, r.increment, n));
+}
+
 std::string hms(double seconds) {
   if (!(seconds >= 0) || seconds > 1e7)
     return "--:--:--";
@@ -657,9 +665,7 @@ public:
     iterations_ += r.iterations;
     if (options_.progress)
       print_progress(r, last);
-    if (options_.stop_after > 0 && r.increment >= options_.stop_after && !last)
-      throw Interrupted(fmt::format("stopped at t = {:.6g} s after increment {} (--stop-after {})",
-                                    r.time, r.increment, options_.stop_after));
+    stop_after(options_.stop_after, r, last);
   }
 
   void on_notice(const Simulation&, const std::string& what) override {
@@ -825,6 +831,15 @@ output::NodeSection drawn_section(const Section& s, double element_length) {
   return {r, r, 2.0};
 }
 
+/// The run's simulation, from the start or from the restart's checkpoint.
+std::unique_ptr<Simulation>
+make_simulation(const Model& model, const RunOptions& options,
+                const std::optional<output::StoredCheckpoint>& restart) {
+  const SimulationOptions sim_options{options.linear_solver, options.stop_requested};
+  return restart ? std::make_unique<Simulation>(model, sim_options, restart->simulation)
+                 : std::make_unique<Simulation>(model, sim_options);
+}
+
 /// What a completed run reports: its size, wall time since start, end state and energies.
 RunSummary summarise(const Simulation& sim, Clock::time_point start) {
   RunSummary summary;
@@ -897,10 +912,7 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
   std::optional<output::StoredCheckpoint> restart;
   if (!options.restart_from.empty())
     restart = prepare_restart(model, options, deck_hash);
-  const SimulationOptions sim_options{options.linear_solver, options.stop_requested};
-  const std::unique_ptr<Simulation> simulation =
-      restart ? std::make_unique<Simulation>(model, sim_options, restart->simulation)
-              : std::make_unique<Simulation>(model, sim_options);
+  const std::unique_ptr<Simulation> simulation = make_simulation(model, options, restart);
   Simulation& sim = *simulation;
 
   output::Mesh mesh;
@@ -1003,10 +1015,7 @@ public:
   FollowerObserver(const Model& model, int stop_after)
       : t_end_(model.steps.back().end_time), stop_after_(stop_after) {}
   void on_increment(const Simulation&, const IncrementReport& r) override {
-    const bool last = r.time >= t_end_ * (1 - 1e-12);
-    if (stop_after_ > 0 && r.increment >= stop_after_ && !last)
-      throw Interrupted(fmt::format("stopped at t = {:.6g} s after increment {} (--stop-after {})",
-                                    r.time, r.increment, stop_after_));
+    stop_after(stop_after_, r, r.time >= t_end_ * (1 - 1e-12));
   }
 
 private:
@@ -1021,10 +1030,7 @@ RunSummary follow_model(const Model& model, const RunOptions& options) {
   std::optional<output::StoredCheckpoint> restart;
   if (!options.restart_from.empty())
     restart = read_restart(model, options, output::deck_fingerprint(options.deck_text, model));
-  const SimulationOptions sim_options{options.linear_solver, options.stop_requested};
-  const std::unique_ptr<Simulation> simulation =
-      restart ? std::make_unique<Simulation>(model, sim_options, restart->simulation)
-              : std::make_unique<Simulation>(model, sim_options);
+  const std::unique_ptr<Simulation> simulation = make_simulation(model, options, restart);
   Simulation& sim = *simulation;
   FollowerObserver observer(model, options.stop_after);
   sim.run(&observer);

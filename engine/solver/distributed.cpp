@@ -63,4 +63,10 @@ int ranks_on_this_machine() {
 }
 #endif
 
+Share share(int n) {
+  const int r = rank(), p = size();
+  const auto first = [&](int k) { return static_cast<int>(static_cast<long long>(n) * k / p); };
+  return {first(r), first(r + 1)};
+}
+
 } // namespace yarnsim::distributed

@@ -16,6 +16,13 @@ int size();
 /// at the same point of the run. `local` itself in a one-process run.
 bool any(bool local);
 
+/// This process's share of n equations (or columns): [begin, end), contiguous blocks in rank
+/// order whose sizes differ by at most one; [0, n) in a one-process run.
+struct Share {
+  int begin, end;
+};
+Share share(int n);
+
 /// Processes of this run on this machine (the node's share of the cores); 1 without MPI.
 int ranks_on_this_machine();
 

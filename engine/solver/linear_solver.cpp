@@ -6,6 +6,7 @@
 // Eigen's MetisSupport needs <iostream> before it (engineering-notes.md).
 #include <atomic>
 #include <cmath>
+#include <exception>
 #include <iostream>
 
 #include <Eigen/CholmodSupport>
@@ -271,6 +272,11 @@ public:
 #endif
   }
   ~MumpsSolver() override {
+    // Over MPI the termination is collective. A process unwinding from a failure of its own
+    // (the leader's files) would wait in it for the others forever, so it is skipped there;
+    // the run then ends by MPI_Abort (apps/yarnsim.cpp).
+    if (distributed::size() > 1 && std::uncaught_exceptions() > 0)
+      return;
     id_.job = -2;
     dmumps_c(&id_);
   }
@@ -281,14 +287,11 @@ public:
     sym_.analyze(A);
     const SparseMatrix& S = sym_.matrix();
     // This process's columns: all of them on one process, contiguous shares over MPI.
-    const int ranks = distributed::size(), rank = distributed::rank();
-    const auto first = [&](int r) {
-      return static_cast<int>(static_cast<long long>(S.outerSize()) * r / ranks);
-    };
+    const distributed::Share columns = distributed::share(static_cast<int>(S.outerSize()));
     irn_.clear();
     jcn_.clear();
     source_.clear();
-    for (int col = first(rank); col < first(rank + 1); ++col)
+    for (int col = columns.begin; col < columns.end; ++col)
       for (int k = S.outerIndexPtr()[col]; k < S.outerIndexPtr()[col + 1]; ++k)
         if (S.innerIndexPtr()[k] >= col) { // lower triangle, 1-based coordinates
           irn_.push_back(S.innerIndexPtr()[k] + 1);

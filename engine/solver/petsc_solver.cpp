@@ -7,6 +7,7 @@
 #include "engine/solver/symmetric_part.hpp"
 
 #include <algorithm>
+#include <exception>
 #include <fmt/format.h>
 #include <petscksp.h>
 // PetscObjectStateIncrease (developer level): the values written into the blocks directly.
@@ -30,15 +31,24 @@ void check(PetscErrorCode code, const char* call) {
       fmt::format("PETSc: {} failed: {} (error {})", call, text ? text : "", int(code)));
 }
 
-/// The processes' shares of the equations: contiguous blocks, sizes differing by at most one.
-PetscInt first_row(PetscInt n, int rank, int size) {
-  return static_cast<PetscInt>(static_cast<long long>(n) * rank / size);
-}
-
 class PetscSolver final : public LinearSolver {
 public:
-  explicit PetscSolver(bool symmetric) : symmetric_(symmetric) {}
-  ~PetscSolver() override { release(); }
+  explicit PetscSolver(bool symmetric) : symmetric_(symmetric) {
+    // MUMPS's working space: 50 % over its analysis's estimate, as MumpsSolver asks (its
+    // default, 20 %, runs out on indefinite tangents), unless PETSC_OPTIONS sets it.
+    PetscBool set = PETSC_FALSE;
+    check(PetscOptionsHasName(nullptr, nullptr, "-mat_mumps_icntl_14", &set),
+          "PetscOptionsHasName");
+    if (!set)
+      check(PetscOptionsSetValue(nullptr, "-mat_mumps_icntl_14", "50"), "PetscOptionsSetValue");
+  }
+  ~PetscSolver() override {
+    // Destroying PETSc's parallel objects is collective: skipped while this process unwinds
+    // from a failure the others may not share (as ~MumpsSolver, linear_solver.cpp).
+    if (distributed::size() > 1 && std::uncaught_exceptions() > 0)
+      return;
+    release();
+  }
   PetscSolver(const PetscSolver&) = delete;
   PetscSolver& operator=(const PetscSolver&) = delete;
 
@@ -52,9 +62,9 @@ public:
       sym_.analyze(A);
     const SparseMatrix& M = symmetric_ ? sym_.matrix() : A;
     const PetscInt n = static_cast<PetscInt>(M.rows());
-    const int rank = distributed::rank(), size = distributed::size();
-    begin_ = first_row(n, rank, size);
-    end_ = first_row(n, rank + 1, size);
+    const distributed::Share rows = distributed::share(static_cast<int>(n));
+    begin_ = rows.begin;
+    end_ = rows.end;
     const PetscInt m = end_ - begin_;
 
     // This process's rows of the column-major M: (row, column, index into M's values).
@@ -113,7 +123,7 @@ public:
     for (const Entry& e : entries)
       (e.col >= begin_ && e.col < end_ ? diagonal_source_ : off_source_).push_back(e.k);
     Mat diagonal_block = matrix_, off_block = nullptr;
-    if (size > 1)
+    if (distributed::size() > 1)
       check(MatMPIAIJGetSeqAIJ(matrix_, &diagonal_block, &off_block, nullptr),
             "MatMPIAIJGetSeqAIJ");
     check_block(diagonal_block, diagonal_source_.size(), "diagonal");

@@ -3,7 +3,8 @@
 # 12 x 12 weave's run over 2 processes ends it within 3 s (2 of them mpirun's), results.h5 opens with
 # status "interrupted" and every completed increment; a restart over 2 processes from its
 # checkpoint (and one over 3) completes and gives the uninterrupted run's results within 1e-10.
-# A deck with errors exits 2 with the errors said once; a run that cannot converge exits 3.
+# A deck with errors exits 2 with the errors said once; a run that cannot converge exits 3; a
+# failure of the leader alone (an output folder it cannot make) ends every process with exit 1.
 # Usage: interrupt_restart.sh YARNSIM REPO WORKDIR
 set -u
 yarnsim="$1"; repo="$2"; work="$3"
@@ -71,6 +72,17 @@ code=$?
 [ "$code" -eq 2 ] || { echo "FAIL bad deck: exit $code, expected 2"; cat bad.log; fail=1; }
 [ "$(grep -c 'n_warp' bad.log)" -eq 1 ] && [ "$(grep -c 'penalty' bad.log)" -ge 1 ] ||
   { echo "FAIL bad deck: its errors are not each said once"; cat bad.log; fail=1; }
+
+# A failure of the leader alone (its output folder cannot be made, after the processes started
+# factorising together): every process ends, exit 1, the error said. Before, the leader waited
+# in the solver's collective clean-up while unwinding, and the run hung.
+mpi_start=$(now)
+timeout 60 mpirun -np 2 "$yarnsim" run w12.toml -o /proc/no-such-folder -q > nofolder.log 2>&1
+code=$?
+[ "$code" -eq 1 ] || { echo "FAIL unwritable output: exit $code, expected 1 (124: it hung)"; cat nofolder.log; fail=1; }
+grep -q "error: .*cannot create directory /proc/no-such-folder" nofolder.log ||
+  { echo "FAIL unwritable output: the error is not said"; cat nofolder.log; fail=1; }
+echo "unwritable output folder: ended in $(elapsed "$mpi_start") s"
 
 # A run that cannot converge (a load jumping a hundredfold; applied moments: PETSc's LU): exit 3,
 # results.h5 with status "failed" and every completed increment.
