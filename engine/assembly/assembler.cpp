@@ -7,15 +7,23 @@
 #include "engine/model/model.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <iterator>
 #include <stdexcept>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 namespace yarnsim {
 
 namespace {
+
+/// The next pattern's Assembler::pattern_id, unique in the process.
+std::uint64_t next_pattern_id() {
+  static std::atomic<std::uint64_t> last{0};
+  return ++last;
+}
 
 /// Greedy colouring of elements so that no two elements of a colour share a node.
 std::vector<std::vector<int>> colour_elements(const std::vector<std::array<int, 3>>& conn,
@@ -96,9 +104,10 @@ Assembler::Assembler(const Model& model, const std::vector<char>& constrained)
 
 void Assembler::build_pattern(bool keep_values) {
   ++pattern_version_;
+  pattern_id_ = next_pattern_id();
   SparseMatrix old;
   if (keep_values)
-    old = std::move(matrix_);
+    old.swap(matrix_); // Eigen 3.4's SparseMatrix has no move assignment: swap, not copy
   // Pattern: every element's 18 x 18 block, every node's 6 x 6 block and every contact
   // coupling's 6 nodes (translations, or all six DOFs), free equations only. Bucketed by column
   // (a counting pass, then a filling pass) and sorted and deduplicated column by column: a global
@@ -264,57 +273,87 @@ bool Assembler::ensure_couplings(std::vector<ContactCoupling> groups) {
 }
 
 bool Assembler::grow_pattern(const std::vector<ContactCoupling>& added) {
-  // The entries (column, row) the pattern lacks, sorted and unique.
+  // The entries (column, row) the pattern lacks, sorted and unique; the groups are looked up in
+  // parallel, each thread's finds gathered and sorted (the same list on any thread count).
+  tbb::enumerable_thread_specific<std::vector<std::pair<int, int>>> found;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, added.size(), 4),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      std::vector<std::pair<int, int>>& local = found.local();
+                      for (std::size_t g = range.begin(); g != range.end(); ++g)
+                        for_each_block_entry(equation_, added[g].nodes.data(), 6,
+                                             added[g].rotations ? 6 : 3, [&](int col, int row) {
+                                               if (slot_of(matrix_, row, col) < 0)
+                                                 local.emplace_back(col, row);
+                                             });
+                    });
   std::vector<std::pair<int, int>> fresh;
-  for (const ContactCoupling& g : added)
-    for_each_block_entry(equation_, g.nodes.data(), 6, g.rotations ? 6 : 3, [&](int col, int row) {
-      if (slot_of(matrix_, row, col) < 0)
-        fresh.emplace_back(col, row);
-    });
+  for (const auto& local : found)
+    fresh.insert(fresh.end(), local.begin(), local.end());
   std::sort(fresh.begin(), fresh.end());
   fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
   if (fresh.empty())
     return false;
   ++pattern_version_;
-  const SparseMatrix old = std::move(matrix_);
-  const Eigen::Index old_size = old.nonZeros();
-  const auto size = static_cast<Eigen::Index>(old_size + static_cast<Eigen::Index>(fresh.size()));
-  matrix_.resize(n_equations_, n_equations_);
+  pattern_id_ = next_pattern_id();
+  // Column c of the grown pattern starts where the old one did, shifted by the fresh entries of
+  // the columns before it; then every column is merged on its own, in parallel.
+  // The old pattern goes to spare_ (a swap: Eigen 3.4's SparseMatrix has no move constructor,
+  // and a copy of the matrix took most of a growth's time); the new one is written into the
+  // storage spare_ held, which keeps a tenth more than it needs so that the next growths reuse
+  // it instead of touching fresh pages.
+  spare_.swap(matrix_);
+  const SparseMatrix& old = spare_;
+  const int* old_outer = old.outerIndexPtr();
+  const int* old_inner = old.innerIndexPtr();
+  const double* old_values = old.valuePtr();
+  std::vector<int> fresh_start(static_cast<std::size_t>(n_equations_) + 1, 0);
+  for (const auto& [col, row] : fresh)
+    ++fresh_start[static_cast<std::size_t>(col) + 1];
+  for (int c = 0; c < n_equations_; ++c)
+    fresh_start[c + 1] += fresh_start[c];
+  const auto size =
+      static_cast<Eigen::Index>(old.nonZeros() + static_cast<Eigen::Index>(fresh.size()));
+  matrix_.resize(n_equations_, n_equations_); // keeps the storage
+  if (matrix_.data().allocatedSize() < size)
+    matrix_.reserve(size + size / 10);
   matrix_.resizeNonZeros(size);
   int* outer = matrix_.outerIndexPtr();
   int* inner = matrix_.innerIndexPtr();
   double* values = matrix_.valuePtr();
-  std::vector<int> moved(static_cast<std::size_t>(old_size)); // old entry -> new entry
-  std::size_t f = 0;
-  int out = 0;
-  for (int c = 0; c < n_equations_; ++c) {
-    outer[c] = out;
-    for (int k = old.outerIndexPtr()[c]; k < old.outerIndexPtr()[c + 1]; ++k) {
-      for (; f < fresh.size() && fresh[f].first == c && fresh[f].second < old.innerIndexPtr()[k];
-           ++f, ++out) {
-        inner[out] = fresh[f].second;
-        values[out] = 0.0;
-      }
-      inner[out] = old.innerIndexPtr()[k];
-      values[out] = old.valuePtr()[k];
-      moved[static_cast<std::size_t>(k)] = out++;
-    }
-    for (; f < fresh.size() && fresh[f].first == c; ++f, ++out) {
-      inner[out] = fresh[f].second;
-      values[out] = 0.0;
-    }
-  }
-  outer[n_equations_] = out;
-  assert(out == size && f == fresh.size());
+  for (int c = 0; c <= n_equations_; ++c)
+    outer[c] = old_outer[c] + fresh_start[c];
+  std::vector<int>& moved = moved_; // old entry -> new entry
+  moved.resize(static_cast<std::size_t>(old.nonZeros()));
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, n_equations_, 256), [&](const tbb::blocked_range<int>& range) {
+        for (int c = range.begin(); c != range.end(); ++c) {
+          int f = fresh_start[c], out = outer[c];
+          for (int k = old_outer[c]; k < old_outer[c + 1]; ++k) {
+            for (; f < fresh_start[c + 1] && fresh[f].second < old_inner[k]; ++f, ++out) {
+              inner[out] = fresh[f].second;
+              values[out] = 0.0;
+            }
+            inner[out] = old_inner[k];
+            values[out] = old_values[k];
+            moved[static_cast<std::size_t>(k)] = out++;
+          }
+          for (; f < fresh_start[c + 1]; ++f, ++out) {
+            inner[out] = fresh[f].second;
+            values[out] = 0.0;
+          }
+          assert(out == outer[c + 1]);
+        }
+      });
   tbb::parallel_for(std::size_t{0}, element_slots_.size(), [&](std::size_t e) {
     for (int& slot : element_slots_[e])
       if (slot >= 0)
         slot = moved[static_cast<std::size_t>(slot)];
   });
-  for (std::array<int, 36>& node : node_slots_)
-    for (int& slot : node)
+  tbb::parallel_for(std::size_t{0}, node_slots_.size(), [&](std::size_t i) {
+    for (int& slot : node_slots_[i])
       if (slot >= 0)
         slot = moved[static_cast<std::size_t>(slot)];
+  });
   return true;
 }
 

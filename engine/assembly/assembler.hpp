@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <cstdint>
 #include <vector>
 
 namespace yarnsim {
@@ -86,6 +87,9 @@ public:
   const std::vector<ContactCoupling>& couplings() const { return couplings_; }
   /// Counts pattern rebuilds; a solver analyses again when it changes.
   int pattern_version() const { return pattern_version_; }
+  /// Names the current pattern among every pattern any Assembler of the process has built (a
+  /// process-wide counter): slots looked up in a pattern stay valid while this is unchanged.
+  std::uint64_t pattern_id() const { return pattern_id_; }
 
   /// Where a contact pair's 18 x 18 tangent over the translations of its 6 nodes goes: slots[18 r
   /// + c] is the index into matrix().valuePtr() of block entry (r, c), r = 3 a + i for node a's
@@ -113,6 +117,7 @@ private:
 
   int n_nodes_ = 0;
   int pattern_version_ = 0;
+  std::uint64_t pattern_id_ = 0;
   std::vector<ContactCoupling> couplings_; ///< see couplings()
   int n_equations_ = 0;
   std::vector<int> equation_;
@@ -120,6 +125,10 @@ private:
   std::vector<BeamReference> reference_;
   std::vector<std::vector<int>> colours_;
   SparseMatrix matrix_;
+  /// grow_pattern's buffers, kept for their storage: the pattern before the growth, and where
+  /// each of its entries went.
+  SparseMatrix spare_;
+  std::vector<int> moved_;
   std::vector<std::array<int, 18 * 18>>
       element_slots_;                           ///< value index of (i, j) at 18 j + i, or -1
   std::vector<std::array<int, 36>> node_slots_; ///< value index per node (i, j)

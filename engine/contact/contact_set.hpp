@@ -12,6 +12,7 @@
 #include "engine/state/state.hpp"
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -90,24 +91,93 @@ bool needs_coupling(const Result& r, double reach) {
   return r.active || (r.status == contact::ProjectionStatus::Converged && r.gap < reach);
 }
 
+/// The matrix slots of a contact set's pairs' tangents, kept across evaluations: a pair's slots
+/// stay valid while the set's work list and the matrix's pattern stay, so an evaluation looks up
+/// only the pairs that became active since (find_active_slots). The set clears it whenever it
+/// makes its work list anew (new candidates, a restore).
+struct SlotCache {
+  std::vector<int> offset;    ///< per work item: where its block starts in `store`, or -1
+  std::vector<int> store;     ///< the blocks' slots (Assembler::*_block_slots)
+  std::uint64_t pattern = 0;  ///< Assembler::pattern_id() they were looked up in
+  std::vector<int> looked_up; ///< scratch: the work items looked up in this evaluation
+  void clear() {
+    offset.clear();
+    store.clear();
+    pattern = 0;
+  }
+  const int* slots(int item) const { return store.data() + offset[static_cast<std::size_t>(item)]; }
+};
+
 /// The first step of a contact set's assembly: the indices of the active items of `work` (in
-/// their order) into `items` and, for a tangent, each one's `block` matrix slots into `slots`
-/// (slots_of(item, destination), an Assembler::*_block_slots lookup), found in parallel. The
-/// set then adds the pairs in their order: the same sums on any thread count.
+/// their order) into `items` and, for a tangent, each one's `block` matrix slots in `cache`
+/// (cache.slots(item)): those the cache lacks (new active items, or all after the pattern
+/// `pattern_id` changed) are looked up in parallel by slots_of(item, destination), an
+/// Assembler::*_block_slots lookup. The set then adds the pairs in their order (add_by_node):
+/// the same sums on any thread count.
 template <class Work, class SlotsOf>
 void find_active_slots(const std::vector<Work>& work, bool want_tangent, int block,
-                       std::vector<int>& items, std::vector<int>& slots, SlotsOf slots_of) {
+                       std::uint64_t pattern_id, std::vector<int>& items, SlotCache& cache,
+                       SlotsOf slots_of) {
   items.clear();
   for (std::size_t w = 0; w < work.size(); ++w)
     if (work[w].result.active)
       items.push_back(static_cast<int>(w));
   if (!want_tangent)
     return;
-  slots.resize(static_cast<std::size_t>(block) * items.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, items.size(), 8),
+  if (cache.pattern != pattern_id || cache.offset.size() != work.size()) {
+    cache.clear();
+    cache.offset.assign(work.size(), -1);
+    cache.pattern = pattern_id;
+  }
+  cache.looked_up.clear();
+  for (int w : items)
+    if (cache.offset[static_cast<std::size_t>(w)] < 0) {
+      cache.offset[static_cast<std::size_t>(w)] = static_cast<int>(cache.store.size());
+      cache.store.resize(cache.store.size() + static_cast<std::size_t>(block));
+      cache.looked_up.push_back(w);
+    }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cache.looked_up.size(), 8),
                     [&](const tbb::blocked_range<std::size_t>& range) {
-                      for (std::size_t k = range.begin(); k != range.end(); ++k)
-                        slots_of(work[items[k]], slots.data() + block * k);
+                      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                        const int w = cache.looked_up[k];
+                        slots_of(work[static_cast<std::size_t>(w)],
+                                 cache.store.data() + cache.offset[static_cast<std::size_t>(w)]);
+                      }
+                    });
+}
+
+/// The second step of a contact set's assembly: every active pair's contributions added to the
+/// residual and the matrix, in parallel over the nodes they touch. `nodes[k]` (k over `items`,
+/// unused slots repeating a node) are pair k's nodes; add(k, node) adds pair k's residual entries
+/// of `node` and its tangent's entries in the matrix columns of `node`, each in the order the
+/// pair's block is visited. Each node's pairs are visited in their order, so every residual entry
+/// and matrix slot (a slot lies in one node's column) receives the same additions in the same
+/// order as a serial loop over the pairs: the same bits on any thread count and as before the
+/// loop ran in parallel. `offsets` and `incident` are scratch (node -> pairs, kept to spare the
+/// allocations).
+template <std::size_t N, class Add>
+void add_by_node(int n_nodes, const std::vector<std::array<int, N>>& nodes,
+                 std::vector<int>& offsets, std::vector<int>& incident, Add add) {
+  offsets.assign(static_cast<std::size_t>(n_nodes) + 1, 0);
+  const auto each_node = [&](std::size_t k, auto&& visit) {
+    const std::array<int, N>& n = nodes[k];
+    for (std::size_t a = 0; a < N; ++a)
+      if (std::find(n.begin(), n.begin() + a, n[a]) == n.begin() + a) // once per pair
+        visit(n[a]);
+  };
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    each_node(k, [&](int node) { ++offsets[static_cast<std::size_t>(node) + 1]; });
+  for (int i = 0; i < n_nodes; ++i)
+    offsets[i + 1] += offsets[i];
+  incident.resize(static_cast<std::size_t>(offsets[n_nodes]));
+  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    each_node(k, [&](int node) { incident[fill[node]++] = static_cast<int>(k); });
+  tbb::parallel_for(tbb::blocked_range<int>(0, n_nodes, 64),
+                    [&](const tbb::blocked_range<int>& range) {
+                      for (int node = range.begin(); node != range.end(); ++node)
+                        for (int i = offsets[node]; i < offsets[node + 1]; ++i)
+                          add(static_cast<std::size_t>(incident[i]), node);
                     });
 }
 

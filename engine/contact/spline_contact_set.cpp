@@ -202,6 +202,7 @@ bool SplineContactSet::update_candidates(const State& state) {
   // The work list follows the candidates: rebuilt only when a search changed them.
   ++candidates_version_;
   work_.clear();
+  assembly_slots_.clear();
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
       work_.push_back({static_cast<int>(k), p, {}});
@@ -382,49 +383,72 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
   // its order (find_active_slots).
   constexpr int kBlock = 18 * 18;
-  find_active_slots(work_, want_tangent, kBlock, assembly_items_, assembly_slots_,
-                    [&](const Work& item, int* slots) {
+  find_active_slots(work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_,
+                    assembly_slots_, [&](const Work& item, int* slots) {
                       assembler.translation_block_slots(
                           nodes_of(*definitions_[item.definition], item.pair), slots);
                     });
-  double* values = assembler.matrix().valuePtr();
+  // Each item's nodes and line friction, then the items added in parallel over their nodes,
+  // each node's in the items' order (add_by_node): the same sums as one loop over the items.
+  assembly_nodes_.resize(assembly_items_.size());
+  assembly_lines_.resize(assembly_items_.size());
   std::size_t next_line = 0; // line_items_ ascend with the work items
   for (std::size_t k = 0; k < assembly_items_.size(); ++k) {
-    const std::size_t w = static_cast<std::size_t>(assembly_items_[k]);
-    const Work& item = work_[w];
-    const std::array<int, 6> n = nodes_of(*definitions_[item.definition], item.pair);
-    const contact::SplineFrictionResult* f =
-        any_friction_ && friction_[w].active ? &friction_[w] : nullptr;
-    while (next_line < line_items_.size() && line_items_[next_line] < static_cast<int>(w))
+    const int w = assembly_items_[k];
+    const Work& item = work_[static_cast<std::size_t>(w)];
+    assembly_nodes_[k] = nodes_of(*definitions_[item.definition], item.pair);
+    while (next_line < line_items_.size() && line_items_[next_line] < w)
       ++next_line;
-    const contact::LineFrictionResult* line =
-        next_line < line_items_.size() && line_items_[next_line] == static_cast<int>(w) &&
-                line_friction_[next_line].mask != 0
-            ? &line_friction_[next_line]
-            : nullptr;
-    for (int a = 0; a < 6; ++a) {
-      residual.segment<3>(6 * n[a]) += item.result.residual.segment<3>(3 * a);
-      if (f)
-        residual.segment<3>(6 * n[a]) += f->residual.segment<3>(3 * a);
-      if (line)
-        residual.segment<3>(6 * n[a]) += line->residual.segment<3>(3 * a);
-    }
-    if (!want_tangent)
-      continue;
-    const int* slots = assembly_slots_.data() + kBlock * k;
-    for (int r = 0; r < 18; ++r)
-      for (int c = 0; c < 18; ++c) {
-        const int slot = slots[18 * r + c];
-        if (slot < 0)
-          continue;
-        double v = item.result.tangent(r, c);
-        if (f)
-          v += f->tangent(r, c);
-        if (line)
-          v += line->tangent(r, c);
-        values[slot] += v;
-      }
+    assembly_lines_[k] = next_line < line_items_.size() && line_items_[next_line] == w &&
+                                 line_friction_[next_line].mask != 0
+                             ? static_cast<int>(next_line)
+                             : -1;
   }
+  double* values = assembler.matrix().valuePtr();
+  add_by_node(assembler.n_nodes(), assembly_nodes_, assembly_offsets_, assembly_incident_,
+              [&](std::size_t k, int node) {
+                const std::size_t w = static_cast<std::size_t>(assembly_items_[k]);
+                const Work& item = work_[w];
+                const std::array<int, 6>& n = assembly_nodes_[k];
+                const contact::SplineFrictionResult* f =
+                    any_friction_ && friction_[w].active ? &friction_[w] : nullptr;
+                const contact::LineFrictionResult* line =
+                    assembly_lines_[k] >= 0
+                        ? &line_friction_[static_cast<std::size_t>(assembly_lines_[k])]
+                        : nullptr;
+                for (int a = 0; a < 6; ++a) {
+                  if (n[a] != node)
+                    continue;
+                  residual.segment<3>(6 * node) += item.result.residual.segment<3>(3 * a);
+                  if (f)
+                    residual.segment<3>(6 * node) += f->residual.segment<3>(3 * a);
+                  if (line)
+                    residual.segment<3>(6 * node) += line->residual.segment<3>(3 * a);
+                }
+                if (!want_tangent)
+                  return;
+                // Slot (r, c) lies in the column of node n[c / 3] (translation_block_slots):
+                // this node's columns, visited row by row as one loop over the block would.
+                std::array<int, 18> columns;
+                int n_columns = 0;
+                for (int c = 0; c < 18; ++c)
+                  if (n[c / 3] == node)
+                    columns[n_columns++] = c;
+                const int* slots = assembly_slots_.slots(assembly_items_[k]);
+                for (int r = 0; r < 18; ++r)
+                  for (int q = 0; q < n_columns; ++q) {
+                    const int c = columns[q];
+                    const int slot = slots[18 * r + c];
+                    if (slot < 0)
+                      continue;
+                    double v = item.result.tangent(r, c);
+                    if (f)
+                      v += f->tangent(r, c);
+                    if (line)
+                      v += line->tangent(r, c);
+                    values[slot] += v;
+                  }
+              });
 }
 
 int SplineContactSet::work_index(const Key& key) const {
@@ -713,6 +737,7 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
     r.normal = p.normal;
   }
   work_ = std::move(work);
+  assembly_slots_.clear();
   for (const Snapshot::LineWarm& l : snapshot.line_committed) {
     const auto [k, segment, point, spline] = l.key;
     if (k < 0 || k >= static_cast<int>(definitions_.size()) || segment < 0 ||

@@ -183,9 +183,14 @@ private:
   double dissipated_ = 0; ///< J, by friction over the committed increments
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;
-  /// assemble()'s buffers, kept for their capacity: the active work items, and the slots of
-  /// their tangents in the matrix (324 per item, Assembler::translation_block_slots).
-  mutable std::vector<int> assembly_items_, assembly_slots_;
+  /// assemble()'s buffers, kept for their capacity: the active work items, the slots of the
+  /// work items' tangents in the matrix (324 per item, Assembler::translation_block_slots;
+  /// cleared with each new work list), each active item's nodes and line friction (an index into
+  /// line_friction_, or -1), and the node -> pairs lists of add_by_node.
+  mutable std::vector<int> assembly_items_, assembly_lines_;
+  mutable SlotCache assembly_slots_;
+  mutable std::vector<std::array<int, 6>> assembly_nodes_;
+  mutable std::vector<int> assembly_offsets_, assembly_incident_;
   /// Warm starts of the last converged increment's candidates, sorted by key.
   std::vector<Snapshot::Warm> committed_;
   std::vector<Snapshot::Warm> next_committed_; ///< commit()'s buffer, kept for its capacity

@@ -155,6 +155,7 @@ bool SurfaceContactSet::update_candidates(const State& state) {
   // The work list follows the candidates: rebuilt only when a search changed them.
   ++candidates_version_;
   work_.clear();
+  assembly_slots_.clear();
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
       work_.push_back({static_cast<int>(k), p, {}});
@@ -464,46 +465,65 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
   // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
   // its order (find_active_slots).
   constexpr int kBlock = 24 * 24;
-  find_active_slots(work_, want_tangent, kBlock, assembly_items_, assembly_slots_,
-                    [&](const Work& item, int* slots) {
+  find_active_slots(work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_,
+                    assembly_slots_, [&](const Work& item, int* slots) {
                       assembler.surface_pair_block_slots(
                           nodes_of(*definitions_[item.definition], item.pair), slots);
                     });
-  double* values = assembler.matrix().valuePtr();
+  // The items added in parallel over their end nodes, each node's in the items' order
+  // (add_by_node): the same sums as one loop over the items.
+  assembly_nodes_.resize(assembly_items_.size());
   for (std::size_t i = 0; i < assembly_items_.size(); ++i) {
-    const std::size_t k = static_cast<std::size_t>(assembly_items_[i]);
-    const Work& item = work_[k];
-    const std::array<int, 4> n = nodes_of(*definitions_[item.definition], item.pair);
-    // Kernel order per surface X (0: A, 1: B): x_first, x_last, alpha_first, alpha_last.
-    const double w = item.factor;
-    for (int X = 0; X < 2; ++X)
-      for (int j = 0; j < 2; ++j) {
-        const int node = n[2 * X + j];
-        residual.segment<3>(6 * node) += w * item.result.residual.segment<3>(12 * X + 3 * j);
-        residual.segment<3>(6 * node + 3) +=
-            w * item.result.residual.segment<3>(12 * X + 6 + 3 * j);
-      }
-    const contact::SurfaceFrictionResult* f =
-        any_friction_ && friction_[k].active ? &friction_[k] : nullptr;
-    if (f)
-      for (int X = 0; X < 2; ++X)
-        for (int j = 0; j < 2; ++j) {
-          const int node = n[2 * X + j];
-          residual.segment<3>(6 * node) += w * f->residual.segment<3>(12 * X + 3 * j);
-          residual.segment<3>(6 * node + 3) += w * f->residual.segment<3>(12 * X + 6 + 3 * j);
-        }
-    if (!want_tangent)
-      continue;
-    const int* slots = assembly_slots_.data() + kBlock * i;
-    for (int c = 0; c < 24; ++c)
-      for (int r = 0; r < 24; ++r) {
-        const int slot = slots[24 * c + r];
-        if (slot < 0)
-          continue;
-        values[slot] +=
-            f ? w * (item.result.tangent(r, c) + f->tangent(r, c)) : w * item.result.tangent(r, c);
-      }
+    const Work& item = work_[static_cast<std::size_t>(assembly_items_[i])];
+    assembly_nodes_[i] = nodes_of(*definitions_[item.definition], item.pair);
   }
+  double* values = assembler.matrix().valuePtr();
+  add_by_node(assembler.n_nodes(), assembly_nodes_, assembly_offsets_, assembly_incident_,
+              [&](std::size_t i, int node) {
+                const std::size_t k = static_cast<std::size_t>(assembly_items_[i]);
+                const Work& item = work_[k];
+                const std::array<int, 4>& n = assembly_nodes_[i];
+                // Kernel order per surface X (0: A, 1: B): x_first, x_last, alpha_first,
+                // alpha_last.
+                const double w = item.factor;
+                for (int X = 0; X < 2; ++X)
+                  for (int j = 0; j < 2; ++j) {
+                    if (n[2 * X + j] != node)
+                      continue;
+                    residual.segment<3>(6 * node) +=
+                        w * item.result.residual.segment<3>(12 * X + 3 * j);
+                    residual.segment<3>(6 * node + 3) +=
+                        w * item.result.residual.segment<3>(12 * X + 6 + 3 * j);
+                  }
+                const contact::SurfaceFrictionResult* f =
+                    any_friction_ && friction_[k].active ? &friction_[k] : nullptr;
+                if (f)
+                  for (int X = 0; X < 2; ++X)
+                    for (int j = 0; j < 2; ++j) {
+                      if (n[2 * X + j] != node)
+                        continue;
+                      residual.segment<3>(6 * node) += w * f->residual.segment<3>(12 * X + 3 * j);
+                      residual.segment<3>(6 * node + 3) +=
+                          w * f->residual.segment<3>(12 * X + 6 + 3 * j);
+                    }
+                if (!want_tangent)
+                  return;
+                // Slot (r, c) lies in the column of kernel index c's node
+                // (surface_pair_block_slots).
+                const int* slots = assembly_slots_.slots(assembly_items_[i]);
+                for (int c = 0; c < 24; ++c) {
+                  const int X = c / 12, rest = c % 12;
+                  if (n[2 * X + (rest % 6) / 3] != node)
+                    continue;
+                  for (int r = 0; r < 24; ++r) {
+                    const int slot = slots[24 * c + r];
+                    if (slot < 0)
+                      continue;
+                    values[slot] += f ? w * (item.result.tangent(r, c) + f->tangent(r, c))
+                                      : w * item.result.tangent(r, c);
+                  }
+                }
+              });
 }
 
 void SurfaceContactSet::commit() {
@@ -676,6 +696,7 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
     work[w].factor = p.factor;
   }
   work_ = std::move(work);
+  assembly_slots_.clear();
   // The by-second index as update_candidates builds it.
   by_second_.resize(work_.size());
   for (std::size_t i = 0; i < by_second_.size(); ++i)

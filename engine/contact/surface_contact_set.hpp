@@ -128,9 +128,14 @@ private:
   std::vector<contact::SuperEllipse> sections_; ///< per surface
   std::vector<std::unique_ptr<Definition>> definitions_;
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
-  /// assemble()'s buffers, kept for their capacity: the active work items, and the slots of
-  /// their tangents in the matrix (576 per item, Assembler::surface_pair_block_slots).
-  mutable std::vector<int> assembly_items_, assembly_slots_;
+  /// assemble()'s buffers, kept for their capacity: the active work items, the slots of the
+  /// work items' tangents in the matrix (576 per item, Assembler::surface_pair_block_slots;
+  /// cleared with each new work list), each active item's end nodes, and the node -> pairs lists
+  /// of add_by_node.
+  mutable std::vector<int> assembly_items_;
+  mutable SlotCache assembly_slots_;
+  mutable std::vector<std::array<int, 4>> assembly_nodes_;
+  mutable std::vector<int> assembly_offsets_, assembly_incident_;
   /// Indices into work_ sorted by (definition, second, first); rebuilt with the work list.
   std::vector<std::size_t> by_second_;
   /// Warm starts of the last converged increment's candidates, sorted by key.

@@ -238,17 +238,20 @@ void Simulation::apply_prescribed(double t_new) {
 
 /// The stages of one Newton iteration as a oneTBB flow graph, built once per simulation:
 ///
-///   broad phase (+ zeroing) --> narrow phase ----+
-///                           +-> beam assembly ---+--> contact assembly (+ pattern growth)
+///   broad phase --> narrow phase ----+--> contact assembly (+ pattern growth)
+///   zeroing ------> beam assembly ---+--> inertia terms (computed, not yet added)
 ///
 /// The narrow phase and the beam assembly touch disjoint data (the beams write the matrix's
 /// values, the pattern stays), so they run side by side, each with parallel loops inside; the
 /// contact assembly waits for both, grows the pattern by the pairs the narrow phase found within
-/// reach (keeping the beams' values) and adds the pairs in sorted order, so the sums are the same
-/// on any thread count.
+/// reach (keeping the beams' values) and adds the pairs in their order over the nodes, so the
+/// sums are the same on any thread count. Beside it, whose pattern growth is serial, the nodes'
+/// inertia terms are computed into inertia_; evaluate() adds them after the graph, so every entry
+/// is summed in the same order as before (beams, contact, inertia).
 struct Simulation::IterationGraph {
   tbb::flow::graph graph;
-  tbb::flow::continue_node<tbb::flow::continue_msg> broad, clear, narrow, beams, contact_assembly;
+  tbb::flow::continue_node<tbb::flow::continue_msg> broad, clear, narrow, beams, contact_assembly,
+      inertia;
 
   static double seconds_since(std::chrono::steady_clock::time_point t0) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -306,21 +309,33 @@ struct Simulation::IterationGraph {
                 s.iteration_.ref_moment = m;
                 s.stage_times_.beam_assembly += seconds_since(t0);
               }),
-        contact_assembly(graph, [&s](const tbb::flow::continue_msg&) {
+        contact_assembly(graph,
+                         [&s](const tbb::flow::continue_msg&) {
+                           const auto t0 = std::chrono::steady_clock::now();
+                           if (s.contact_ && s.iteration_.veto.empty()) {
+                             // The pairs the narrow phase found active or within reach must be in
+                             // the pattern; a pattern that grows here keeps the beams' entries
+                             // already assembled.
+                             if (s.iteration_.want_tangent)
+                               s.assembler_->ensure_couplings(std::move(s.iteration_.couplings));
+                             s.contact_->assemble(*s.iteration_.residual, *s.assembler_,
+                                                  s.iteration_.want_tangent);
+                           }
+                           s.stage_times_.other_assembly += seconds_since(t0);
+                         }),
+        inertia(graph, [&s](const tbb::flow::continue_msg&) {
           const auto t0 = std::chrono::steady_clock::now();
-          if (s.contact_ && s.iteration_.veto.empty()) {
-            // The pairs the narrow phase found active or within reach must be in the pattern;
-            // a pattern that grows here keeps the beams' entries already assembled.
-            if (s.iteration_.want_tangent)
-              s.assembler_->ensure_couplings(std::move(s.iteration_.couplings));
-            s.contact_->assemble(*s.iteration_.residual, *s.assembler_, s.iteration_.want_tangent);
-          }
-          s.stage_times_.other_assembly += seconds_since(t0);
+          if (s.iteration_.newmark != nullptr)
+            s.compute_inertia(*s.iteration_.step, *s.iteration_.newmark, s.iteration_.want_tangent);
+          // Not other_assembly: the contact assembly beside it adds to that (evaluate() does).
+          s.inertia_.seconds = seconds_since(t0);
         }) {
     tbb::flow::make_edge(broad, narrow);
     tbb::flow::make_edge(clear, beams);
     tbb::flow::make_edge(narrow, contact_assembly);
     tbb::flow::make_edge(beams, contact_assembly);
+    tbb::flow::make_edge(narrow, inertia);
+    tbb::flow::make_edge(beams, inertia);
   }
 
   void run() {
@@ -329,6 +344,52 @@ struct Simulation::IterationGraph {
     graph.wait_for_all();
   }
 };
+
+void Simulation::compute_inertia(const SolutionStep& step, const NewmarkCoefficients& nm,
+                                 bool want_tangent) {
+  const int n = state_.n_nodes();
+  const double cm = step.rayleigh_mass;
+  const double cz = step.rayleigh_out_of_plane;
+  InertiaTerms& t = inertia_;
+  t.force.resize(3, n);
+  t.moment.resize(3, n);
+  if (want_tangent) {
+    t.force_tangent.resize(3, n);
+    t.moment_tangent.resize(static_cast<std::size_t>(n));
+  }
+  // The largest force and moment are maxima: the same in any order.
+  tbb::combinable<std::pair<double, double>> largest(
+      [] { return std::pair<double, double>(0.0, 0.0); });
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
+    std::pair<double, double>& local = largest.local();
+    for (int i = range.begin(); i != range.end(); ++i) {
+      const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
+      const Eigen::Vector3d a = nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
+      const Eigen::Vector3d v = nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
+      Eigen::Vector3d f = mass_(i) * (a + cm * v);
+      f.z() += mass_(i) * cz * v.z();
+      t.force.col(i) = f;
+      Eigen::Vector3d r;
+      Eigen::Matrix3d K;
+      rotary_inertia(rotary_inertia_.col(i), cm, nm,
+                     {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)}, state_.alpha.col(i), r,
+                     K);
+      t.moment.col(i) = r;
+      if (want_tangent) {
+        t.force_tangent.col(i).setConstant(mass_(i) * (nm.a1 + cm * nm.a4));
+        t.force_tangent(2, i) += mass_(i) * cz * nm.a4;
+        t.moment_tangent[static_cast<std::size_t>(i)] = K;
+      }
+      local.first = std::max(local.first, f.norm());
+      local.second = std::max(local.second, r.norm());
+    }
+  });
+  t.largest_force = t.largest_moment = 0;
+  largest.combine_each([&](const std::pair<double, double>& l) {
+    t.largest_force = std::max(t.largest_force, l.first);
+    t.largest_moment = std::max(t.largest_moment, l.second);
+  });
+}
 
 Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const NewmarkCoefficients& nm,
                                             double t_new, bool want_tangent,
@@ -375,8 +436,17 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
     }
   }
   // The iteration's task graph: (broad phase -> narrow phase) || (clearing -> beam assembly),
-  // then the contact assembly.
-  iteration_ = {&residual, damping, want_tangent, {}, rates, {}, 0.0, 0.0};
+  // then the contact assembly beside the inertia terms.
+  iteration_ = {&residual,
+                damping,
+                want_tangent,
+                {},
+                rates,
+                {},
+                0.0,
+                0.0,
+                dynamic ? &step : nullptr,
+                dynamic ? &nm : nullptr};
   const auto graph_start = std::chrono::steady_clock::now();
   graph_->run();
   stage_times_.iteration_graph +=
@@ -388,48 +458,25 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
   double ref_force = iteration_.ref_force, ref_moment = iteration_.ref_moment;
   if (contact_)
     ref_force = std::max(ref_force, contact_->max_force());
+  stage_times_.other_assembly += inertia_.seconds;
   const auto t0 = std::chrono::steady_clock::now();
 
-  // Inertia (lumped) and mass-proportional damping: each node writes its own residual entries
-  // and diagonal blocks, so the nodes run in parallel; the largest force and moment are maxima,
-  // the same in any order.
+  // Inertia (lumped) and mass-proportional damping, computed in the graph: each node adds its
+  // own residual entries and diagonal blocks, so the nodes run in parallel.
   if (dynamic) {
-    const double cm = step.rayleigh_mass;
-    const double cz = step.rayleigh_out_of_plane;
-    tbb::combinable<std::pair<double, double>> largest(
-        [] { return std::pair<double, double>(0.0, 0.0); });
     tbb::parallel_for(
         tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
-          std::pair<double, double>& local = largest.local();
           for (int i = range.begin(); i != range.end(); ++i) {
-            const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
-            const Eigen::Vector3d a =
-                nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
-            const Eigen::Vector3d v =
-                nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
-            Eigen::Vector3d f = mass_(i) * (a + cm * v);
-            f.z() += mass_(i) * cz * v.z();
-            residual.segment<3>(6 * i) += f;
-            Eigen::Vector3d r;
-            Eigen::Matrix3d K;
-            rotary_inertia(rotary_inertia_.col(i), cm, nm,
-                           {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)},
-                           state_.alpha.col(i), r, K);
-            residual.segment<3>(6 * i + 3) += r;
+            residual.segment<3>(6 * i) += inertia_.force.col(i);
+            residual.segment<3>(6 * i + 3) += inertia_.moment.col(i);
             if (want_tangent) {
-              Eigen::Matrix3d K_u = (mass_(i) * (nm.a1 + cm * nm.a4)) * Eigen::Matrix3d::Identity();
-              K_u(2, 2) += mass_(i) * cz * nm.a4;
-              assembler_->add_node_block(i, 0, 0, K_u);
-              assembler_->add_node_block(i, 3, 3, K);
+              assembler_->add_node_block(i, 0, 0, inertia_.force_tangent.col(i).asDiagonal());
+              assembler_->add_node_block(i, 3, 3, inertia_.moment_tangent[i]);
             }
-            local.first = std::max(local.first, f.norm());
-            local.second = std::max(local.second, r.norm());
           }
         });
-    largest.combine_each([&](const std::pair<double, double>& l) {
-      ref_force = std::max(ref_force, l.first);
-      ref_moment = std::max(ref_moment, l.second);
-    });
+    ref_force = std::max(ref_force, inertia_.largest_force);
+    ref_moment = std::max(ref_moment, inertia_.largest_moment);
   }
 
   // External loads: dead forces and dead or follower moments.

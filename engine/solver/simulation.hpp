@@ -75,8 +75,8 @@ struct StageTimes {
   double factorisation = 0;
   double solve = 0;
   /// The iteration's task graph from start to join (broad phase, narrow phase beside the beam
-  /// assembly, contact assembly): the wall time of its parallel part, within which the stages
-  /// above overlap on several threads.
+  /// assembly, contact assembly beside the inertia terms): the wall time of its parallel part,
+  /// within which the stages above overlap on several threads.
   double iteration_graph = 0;
 };
 
@@ -214,6 +214,8 @@ private:
   };
   /// Evaluates the residual (6 n_nodes, into residual; rhs_ = its negative over the free
   /// equations) and, if want_tangent, the tangent into the assembler's matrix.
+  /// The nodes' inertia and mass damping terms of a dynamic step into inertia_ (a graph node).
+  void compute_inertia(const SolutionStep& step, const NewmarkCoefficients& nm, bool want_tangent);
   Evaluation evaluate(const SolutionStep& step, const NewmarkCoefficients& nm, double t_new,
                       bool want_tangent, Eigen::VectorXd& residual);
   /// Moves the free DOFs by s delta (delta over the free equations).
@@ -291,8 +293,23 @@ private:
     std::vector<ContactCoupling> couplings;
     double ref_force = 0;  ///< largest nodal internal force, N
     double ref_moment = 0; ///< largest nodal internal moment, N m
+    /// A dynamic step's inertia and mass damping (null in static steps): the step and its
+    /// Newmark coefficients, read by the graph's inertia node.
+    const SolutionStep* step = nullptr;
+    const NewmarkCoefficients* newmark = nullptr;
   };
   IterationData iteration_;
+  /// The lumped inertia and mass-proportional damping of every node (IterationGraph's inertia
+  /// node), added to the residual and the tangent after the graph: translational force (N) and
+  /// diagonal of its tangent (N/m), rotary moment (N m) and its tangent (N m/rad), 3 x n_nodes
+  /// each and one 3 x 3 per node; the largest force and moment.
+  struct InertiaTerms {
+    Eigen::Matrix3Xd force, force_tangent, moment;
+    std::vector<Eigen::Matrix3d> moment_tangent;
+    double largest_force = 0, largest_moment = 0;
+    double seconds = 0; ///< wall time of the graph node that computed them, s
+  };
+  InertiaTerms inertia_;
   /// The mixed integration point Newton's stresses (SimulationOptions::mixed_integration_point):
   /// per element, the material strains at the Gauss points (rows 0-2 Gamma, 3-5 K) where the
   /// correction in use started, their derivative along it, and the resultants C (strain + lambda

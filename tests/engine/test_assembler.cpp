@@ -3,10 +3,14 @@
 // assembled without its coupling is refused instead of writing outside the matrix.
 #include "beam_models.hpp"
 #include "engine/assembly/assembler.hpp"
+#include "engine/contact/contact_set.hpp"
 #include "engine/state/state.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
+#include <cmath>
+#include <random>
 #include <stdexcept>
 
 namespace yarnsim {
@@ -157,6 +161,122 @@ TEST(Assembler, CouplingsThePatternHoldsAlreadyDoNotRebuildIt) {
   other.set_couplings(assembler.couplings());
   EXPECT_EQ(other.couplings(), assembler.couplings());
   EXPECT_EQ(other.matrix().nonZeros(), assembler.matrix().nonZeros());
+}
+
+/// Contact pairs of 6 nodes each among `n_nodes`, some with a node twice, each with a residual
+/// of 18 and a tangent of 18 x 18 whose values span twelve decades (so that the order of their
+/// sums shows in the bits).
+struct RandomPairs {
+  std::vector<std::array<int, 6>> nodes;
+  std::vector<Eigen::Matrix<double, 18, 1>> residual;
+  std::vector<Eigen::Matrix<double, 18, 18>> tangent;
+  RandomPairs(int n_pairs, int n_nodes, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<int> node(0, n_nodes - 1);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0), decade(-6.0, 6.0);
+    const auto value = [&] { return unit(rng) * std::pow(10.0, decade(rng)); };
+    for (int k = 0; k < n_pairs; ++k) {
+      std::array<int, 6> n;
+      for (int& i : n)
+        i = node(rng);
+      if (k % 5 == 0)
+        n[4] = n[1]; // a node twice in the pair
+      nodes.push_back(n);
+      residual.emplace_back(Eigen::Matrix<double, 18, 1>::NullaryExpr(value));
+      tangent.emplace_back(Eigen::Matrix<double, 18, 18>::NullaryExpr(value));
+    }
+  }
+};
+
+TEST(ContactAssembly, PairsAddedOverTheirNodesGiveTheBitsOfOneLoopOverThePairs) {
+  // add_by_node (engine/contact/contact_set.hpp) adds the pairs in parallel over the nodes: every
+  // residual entry and matrix slot must receive the same additions in the same order as a serial
+  // loop over the pairs, so the sums are the same bits on any thread count and as before.
+  const int n_nodes = 40, n = 3 * n_nodes;
+  const RandomPairs pairs(600, n_nodes, 7);
+  // A dense matrix, column-major: slot of (row, column) = n column + row; column of the pair's
+  // entry c is node nodes[c / 3]'s.
+  const auto dof = [&](std::size_t k, int r) { return 3 * pairs.nodes[k][r / 3] + r % 3; };
+  std::vector<double> serial_r(n, 0.0), serial_m(n * n, 0.0);
+  for (std::size_t k = 0; k < pairs.nodes.size(); ++k)
+    for (int r = 0; r < 18; ++r) {
+      serial_r[dof(k, r)] += pairs.residual[k](r);
+      for (int c = 0; c < 18; ++c)
+        serial_m[n * dof(k, c) + dof(k, r)] += pairs.tangent[k](r, c);
+    }
+  std::vector<double> reversed_m(n * n, 0.0); // the same sums in another order
+  for (std::size_t k = pairs.nodes.size(); k-- > 0;)
+    for (int r = 0; r < 18; ++r)
+      for (int c = 0; c < 18; ++c)
+        reversed_m[n * dof(k, c) + dof(k, r)] += pairs.tangent[k](r, c);
+  ASSERT_NE(reversed_m, serial_m) << "the test's values must make the order of the sums show";
+
+  for (int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<double> by_node_r(n, 0.0), by_node_m(n * n, 0.0);
+    std::vector<int> offsets, incident;
+    add_by_node(n_nodes, pairs.nodes, offsets, incident, [&](std::size_t k, int node) {
+      for (int r = 0; r < 18; ++r) {
+        if (pairs.nodes[k][r / 3] == node)
+          by_node_r[dof(k, r)] += pairs.residual[k](r);
+        for (int c = 0; c < 18; ++c)
+          if (pairs.nodes[k][c / 3] == node)
+            by_node_m[n * dof(k, c) + dof(k, r)] += pairs.tangent[k](r, c);
+      }
+    });
+    EXPECT_EQ(by_node_r, serial_r) << threads << " threads";
+    EXPECT_EQ(by_node_m, serial_m) << threads << " threads";
+  }
+}
+
+TEST(ContactAssembly, SlotsAreLookedUpAgainOnlyForNewPairsOrANewPattern) {
+  // find_active_slots keeps the slots of the pairs it looked up (SlotCache) while the pattern
+  // stays: a pair active again is not looked up again, a newly active one is, and a grown
+  // pattern (whose entries moved) has every active pair looked up again.
+  const Model m = two_beams();
+  Assembler assembler(m, std::vector<char>(6 * m.nodes.size(), 0));
+  struct Item {
+    std::array<int, 6> nodes;
+    struct {
+      bool active;
+    } result;
+  };
+  std::vector<Item> work{{{0, 1, 2, 7, 8, 9}, {true}}, {{1, 2, 3, 8, 9, 10}, {false}}};
+  std::vector<ContactCoupling> couplings;
+  for (const Item& w : work)
+    couplings.push_back({w.nodes, false});
+  assembler.ensure_couplings(couplings);
+  std::vector<int> items;
+  SlotCache cache;
+  int looked_up = 0;
+  const auto evaluate = [&] {
+    find_active_slots(work, true, 324, assembler.pattern_id(), items, cache,
+                      [&](const Item& item, int* slots) {
+                        ++looked_up;
+                        assembler.translation_block_slots(item.nodes, slots);
+                      });
+    // Every active pair's cached slots are those a fresh look-up gives.
+    for (int w : items) {
+      std::array<int, 324> fresh;
+      assembler.translation_block_slots(work[w].nodes, fresh.data());
+      EXPECT_TRUE(std::equal(fresh.begin(), fresh.end(), cache.slots(w))) << "pair " << w;
+    }
+  };
+  evaluate();
+  EXPECT_EQ(looked_up, 1);
+  evaluate();
+  EXPECT_EQ(looked_up, 1) << "the same active pair, the same pattern: no look-up";
+  work[1].result.active = true;
+  evaluate();
+  EXPECT_EQ(looked_up, 2) << "only the newly active pair";
+  // A coupling of other nodes grows the pattern: entries move, both pairs are looked up again.
+  EXPECT_TRUE(assembler.ensure_couplings({ContactCoupling{{4, 5, 6, 11, 12, 13}, false}}));
+  evaluate();
+  EXPECT_EQ(looked_up, 4);
+  // A new work list (the set clears the cache): looked up again.
+  cache.clear();
+  evaluate();
+  EXPECT_EQ(looked_up, 6);
 }
 
 } // namespace
