@@ -158,13 +158,23 @@ void find_active_slots(const std::vector<Work>& work, bool want_tangent, int blo
 template <std::size_t N, class Add>
 void add_by_node(int n_nodes, const std::vector<std::array<int, N>>& nodes,
                  std::vector<int>& offsets, std::vector<int>& incident, Add add) {
-  offsets.assign(static_cast<std::size_t>(n_nodes) + 1, 0);
   const auto each_node = [&](std::size_t k, auto&& visit) {
     const std::array<int, N>& n = nodes[k];
     for (std::size_t a = 0; a < N; ++a)
       if (std::find(n.begin(), n.begin() + a, n[a]) == n.begin() + a) // once per pair
         visit(n[a]);
   };
+  // Few pairs (an explicit step's, a small fabric's): one loop over the pairs, each pair's nodes
+  // in turn, gives every entry the same additions in the same order (a pair's nodes touch
+  // different entries) without the lists. The paper's explicit case on one thread, 5 000 steps:
+  // 1.046 times the serial loop's time with the lists, 1.029 with this (medians of noisy runs).
+  constexpr std::size_t kSerialBelow = 128;
+  if (nodes.size() < kSerialBelow) {
+    for (std::size_t k = 0; k < nodes.size(); ++k)
+      each_node(k, [&](int node) { add(k, node); });
+    return;
+  }
+  offsets.assign(static_cast<std::size_t>(n_nodes) + 1, 0);
   for (std::size_t k = 0; k < nodes.size(); ++k)
     each_node(k, [&](int node) { ++offsets[static_cast<std::size_t>(node) + 1]; });
   for (int i = 0; i < n_nodes; ++i)

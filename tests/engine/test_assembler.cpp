@@ -188,12 +188,8 @@ struct RandomPairs {
   }
 };
 
-TEST(ContactAssembly, PairsAddedOverTheirNodesGiveTheBitsOfOneLoopOverThePairs) {
-  // add_by_node (engine/contact/contact_set.hpp) adds the pairs in parallel over the nodes: every
-  // residual entry and matrix slot must receive the same additions in the same order as a serial
-  // loop over the pairs, so the sums are the same bits on any thread count and as before.
-  const int n_nodes = 40, n = 3 * n_nodes;
-  const RandomPairs pairs(600, n_nodes, 7);
+void check_pairs_added_over_their_nodes(const RandomPairs& pairs, int n_nodes) {
+  const int n = 3 * n_nodes;
   // A dense matrix, column-major: slot of (row, column) = n column + row; column of the pair's
   // entry c is node nodes[c / 3]'s.
   const auto dof = [&](std::size_t k, int r) { return 3 * pairs.nodes[k][r / 3] + r % 3; };
@@ -226,6 +222,16 @@ TEST(ContactAssembly, PairsAddedOverTheirNodesGiveTheBitsOfOneLoopOverThePairs) 
     });
     EXPECT_EQ(by_node_r, serial_r) << threads << " threads";
     EXPECT_EQ(by_node_m, serial_m) << threads << " threads";
+  }
+}
+
+TEST(ContactAssembly, PairsAddedOverTheirNodesGiveTheBitsOfOneLoopOverThePairs) {
+  // add_by_node (engine/contact/contact_set.hpp) adds the pairs in parallel over the nodes: every
+  // residual entry and matrix slot must receive the same additions in the same order as a serial
+  // loop over the pairs, so the sums are the same bits on any thread count and as before.
+  for (const int n_pairs : {50, 600}) { // below and above the serial loop's bound (kSerialBelow)
+    SCOPED_TRACE(testing::Message() << n_pairs << " pairs");
+    check_pairs_added_over_their_nodes(RandomPairs(n_pairs, 40, 7), 40);
   }
 }
 
