@@ -180,9 +180,13 @@ void add_by_node(int n_nodes, const std::vector<std::array<int, N>>& nodes,
   for (int i = 0; i < n_nodes; ++i)
     offsets[i + 1] += offsets[i];
   incident.resize(static_cast<std::size_t>(offsets[n_nodes]));
-  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
+  // offsets[node] serves as the node's fill cursor, ending at the next node's start; shifted
+  // back by one node afterwards (no buffer allocated per evaluation).
   for (std::size_t k = 0; k < nodes.size(); ++k)
-    each_node(k, [&](int node) { incident[fill[node]++] = static_cast<int>(k); });
+    each_node(k, [&](int node) { incident[offsets[node]++] = static_cast<int>(k); });
+  for (int i = n_nodes; i > 0; --i)
+    offsets[i] = offsets[i - 1];
+  offsets[0] = 0;
   tbb::parallel_for(tbb::blocked_range<int>(0, n_nodes, 64),
                     [&](const tbb::blocked_range<int>& range) {
                       for (int node = range.begin(); node != range.end(); ++node)
