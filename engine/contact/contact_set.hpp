@@ -15,11 +15,13 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <string>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <vector>
 
 namespace yarnsim {
@@ -107,6 +109,20 @@ struct SlotCache {
   }
   const int* slots(int item) const { return store.data() + offset[static_cast<std::size_t>(item)]; }
 };
+
+/// The smallest of limit(k) over k in [0, n), in parallel: ContactSet::closing_limit over a
+/// set's work list. A minimum, so the same value on any thread count.
+template <class Limit>
+double smallest_limit(std::size_t n, Limit limit) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 1024), std::numeric_limits<double>::infinity(),
+      [&](const tbb::blocked_range<std::size_t>& range, double smallest) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k)
+          smallest = std::min(smallest, limit(k));
+        return smallest;
+      },
+      [](double a, double b) { return std::min(a, b); });
+}
 
 /// The first step of a contact set's assembly: the indices of the active items of `work` (in
 /// their order) into `items` and, for a tangent, each one's `block` matrix slots in `cache`
@@ -273,6 +289,19 @@ public:
   virtual void commit() = 0;
   /// Figures of the last evaluation (computed with it, not on each call).
   virtual const ContactSummary& summary() const = 0;
+  /// The closing limit of a Newton correction (formulation.md "Solution"): the largest fraction
+  /// lambda of a correction with nodal translations `du` (3 x n_nodes, m) for which no pair open
+  /// where it starts penetrates deeper than `allowance` times the pair's smaller contact radius
+  /// r, to first order in the translations (the contact points held: the gap is stationary in
+  /// them): min over closing pairs of (g + allowance r) / (-dg/dlambda). The pairs and gaps are
+  /// the last evaluation's (pairs whose projection converged in range); where the correction
+  /// starts elsewhere, `offset` (3 x n_nodes, m, or null) is its start's motion from there, and
+  /// a pair counts as open where its gap moved by it is positive. +infinity when no pair limits
+  /// it. The same value on any thread count (a minimum).
+  virtual double closing_limit(const Eigen::Matrix3Xd& /*du*/, const Eigen::Matrix3Xd* /*offset*/,
+                               double /*allowance*/) const {
+    return std::numeric_limits<double>::infinity();
+  }
   virtual std::vector<ContactPoint> points() const = 0;
 };
 

@@ -79,6 +79,14 @@ void ContactStage::commit() {
     set->commit();
 }
 
+double ContactStage::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,
+                                   double allowance) const {
+  double limit = std::numeric_limits<double>::infinity();
+  for (const auto& set : sets_)
+    limit = std::min(limit, set->closing_limit(du, offset, allowance));
+  return limit;
+}
+
 ContactSummary ContactStage::summary() const {
   if (sets_.size() == 1)
     return sets_.front()->summary();

@@ -33,6 +33,9 @@ public:
   std::vector<ContactCoupling> couplings() const;
   void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
   void commit();
+  /// The smallest ContactSet::closing_limit of the sets.
+  double closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,
+                       double allowance) const;
 
   /// Figures of the last evaluation, summed (counts, forces, energies) or extreme (penetration,
   /// force, gap) over the sets.

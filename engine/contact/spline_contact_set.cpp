@@ -834,4 +834,32 @@ void SplineContactSet::summarise() {
   }
 }
 
+double SplineContactSet::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,
+                                       double allowance) const {
+  return smallest_limit(work_.size(), [&](std::size_t w) {
+    const Work& item = work_[w];
+    const contact::SplineContactResult& r = item.result;
+    constexpr double kNone = std::numeric_limits<double>::infinity();
+    if (r.status != contact::ProjectionStatus::Converged || r.active)
+      return kNone;
+    const Definition& d = *definitions_[item.definition];
+    const std::array<int, 6> n = nodes_of(d, item.pair);
+    const Eigen::Vector3d na = segment_of(d, item.pair.first).values(r.xi_A);
+    const Eigen::Vector3d nb = segment_of(d, item.pair.second).values(r.xi_B);
+    // The motion of C_A(xi_A) - C_B(xi_B) under nodal translations u; dg = n . that.
+    const auto relative = [&](const Eigen::Matrix3Xd& u) {
+      Eigen::Vector3d m = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 3; ++k)
+        m += na(k) * u.col(n[k]) - nb(k) * u.col(n[3 + k]);
+      return m;
+    };
+    const double gap = offset ? r.gap + r.normal.dot(relative(*offset)) : r.gap;
+    const double rate = r.normal.dot(relative(du));
+    if (!(gap > 0) || !(rate < 0))
+      return kNone;
+    const double radius = std::min(d.radius[item.pair.first], d.radius[item.pair.second]);
+    return (gap + allowance * radius) / -rate;
+  });
+}
+
 } // namespace yarnsim

@@ -52,6 +52,8 @@ public:
   void commit() override;
   /// Gaps are effective gaps (eq. 12).
   const ContactSummary& summary() const override { return summary_; }
+  double closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,
+                       double allowance) const override;
   std::vector<ContactPoint> points() const override;
 
   /// What a restart needs to continue bit for bit (engine/solver/checkpoint.hpp): the boxes of

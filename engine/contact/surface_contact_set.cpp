@@ -723,4 +723,30 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
   }
 }
 
+double SurfaceContactSet::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,
+                                        double allowance) const {
+  return smallest_limit(work_.size(), [&](std::size_t w) {
+    const Work& item = work_[w];
+    const contact::SurfaceContactResult& r = item.result;
+    constexpr double kNone = std::numeric_limits<double>::infinity();
+    if (r.status != contact::ProjectionStatus::Converged || r.active)
+      return kNone;
+    const Definition& d = *definitions_[item.definition];
+    const std::array<int, 4> n = nodes_of(d, item.pair);
+    // The motion of the axis points under nodal translations u, (1 - zeta)/2 u_A +
+    // (1 + zeta)/2 u_B on each surface; the sections' rotations are left out.
+    const auto relative = [&](const Eigen::Matrix3Xd& u) -> Eigen::Vector3d {
+      return 0.5 * (1 - r.zeta_A) * u.col(n[0]) + 0.5 * (1 + r.zeta_A) * u.col(n[1]) -
+             0.5 * (1 - r.zeta_B) * u.col(n[2]) - 0.5 * (1 + r.zeta_B) * u.col(n[3]);
+    };
+    const double gap = offset ? r.gap + r.normal.dot(relative(*offset)) : r.gap;
+    const double rate = r.normal.dot(relative(du));
+    if (!(gap > 0) || !(rate < 0))
+      return kNone;
+    const contact::SuperEllipse& a = sections_[d.surface[item.pair.first]];
+    const contact::SuperEllipse& b = sections_[d.surface[item.pair.second]];
+    return (gap + allowance * std::min({a.a(), a.b(), b.a(), b.b()})) / -rate;
+  });
+}
+
 } // namespace yarnsim

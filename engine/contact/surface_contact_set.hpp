@@ -46,6 +46,8 @@ public:
   void commit() override;
   /// Gaps are signed distances between the surfaces.
   const ContactSummary& summary() const override { return summary_; }
+  double closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,
+                       double allowance) const override;
   std::vector<ContactPoint> points() const override;
 
   /// What a restart needs to continue bit for bit (engine/solver/checkpoint.hpp), as

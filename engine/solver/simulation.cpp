@@ -953,6 +953,26 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     // current candidates describes.
     if (options_.line_search && max_contact_step_ > 0 && lambda * last_du > max_contact_step_)
       lambda = max_contact_step_ / last_du;
+    // The closing limit (formulation.md "Solution"): a pair open where the correction starts
+    // penetrates at most closing_allowance times its smaller contact radius, to first order. A
+    // correction from a tangent that lacks the pairs it closes would otherwise throw floating
+    // yarns across the clearance, and the next one back (the active set cycling where many
+    // crossings close in one increment). The contact's last evaluation is of the configuration
+    // the correction starts from, except for the first correction solved at the converged state
+    // (same active set): the predictor's motion from it is then the offset.
+    if (options_.line_search && contact_ && options_.closing_allowance > 0) {
+      correction_motion_.setZero(3, n);
+      for (int i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c)
+          if (const int e = eq[6 * i + c]; e >= 0)
+            correction_motion_(c, i) = delta(e);
+      if (from_converged)
+        predictor_motion_ = state_.x - state_.x_n;
+      const double limit =
+          contact_->closing_limit(correction_motion_, from_converged ? &predictor_motion_ : nullptr,
+                                  options_.closing_allowance);
+      lambda = std::min(lambda, limit);
+    }
     if (options_.mixed_integration_point)
       start_mixed_stresses(delta, from_converged);
     move_along(delta, lambda);

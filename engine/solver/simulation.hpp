@@ -130,6 +130,12 @@ struct SimulationOptions {
   /// picture frame's map, a frictionless tension test's yarns stretched with their ends;
   /// false: the converged state with the prescribed values alone.
   bool kinematic_predictor = true;
+  /// The closing limit of a Newton correction (formulation.md "Solution"): a contact pair open
+  /// where the correction starts may penetrate, to first order, at most this fraction of the
+  /// smaller contact radius of the pair (spline: the contact radii; surface: the sections'
+  /// semi-axes) in one correction; the correction is scaled down to the fraction where the first
+  /// pair reaches it. 0: off. With `line_search` only.
+  double closing_allowance = 0.02;
 };
 
 class Simulation {
@@ -275,7 +281,10 @@ private:
   Eigen::Matrix3Xd contact_velocity_;  ///< 3 x n_nodes, m/s: the iterate's, for contact damping
   /// 3 x n_nodes, rad/s: the iterate's spatial angular velocities, for surface contact damping.
   Eigen::Matrix3Xd contact_angular_velocity_;
-  Eigen::VectorXd rhs_;             ///< minus the residual over the free equations
+  Eigen::VectorXd rhs_; ///< minus the residual over the free equations
+  /// The closing limit's buffers (attempt), kept for their capacity: the correction's nodal
+  /// translations and the predictor's motion from the converged state (3 x n_nodes, m).
+  Eigen::Matrix3Xd correction_motion_, predictor_motion_;
   Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1
   int total_iterations_ = 0;
   StageTimes stage_times_;

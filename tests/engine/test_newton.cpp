@@ -1,8 +1,10 @@
-// The Newton iteration's controls: tolerances against the residual's round-off level, and the
-// tangent's pattern following the contacts within reach down as well as up.
+// The Newton iteration's controls: tolerances against the residual's round-off level, the
+// tangent's pattern following the contacts within reach down as well as up, and the closing limit
+// of a correction.
 
 #include "engine/assembly/assembler.hpp"
 #include "engine/contact/contact_set.hpp"
+#include "engine/contact/contact_stage.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/solver/simulation.hpp"
 
@@ -10,6 +12,8 @@
 #include <fmt/format.h>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <limits>
+#include <memory>
 #include <numbers>
 #include <sstream>
 #include <string>
@@ -174,6 +178,130 @@ TEST(Newton, SlenderRodsRollUpInFewIterationsWithTheMixedStresses) {
               counter.increments, sim.total_iterations(), counter.failed);
   EXPECT_GT(counter.failed, 0);
   EXPECT_GT(double(sim.total_iterations()) / counter.increments, 8.0);
+}
+
+/// Two straight beams of circular section (r = 0.01 m) crossing at right angles with a gap of
+/// 1 mm between their surfaces, in spline or surface contact: the bottom one along x (group A),
+/// the top one along y (group B, nodes 22 to 42), crossing a quarter into an element of each.
+Model gapped_crossing(bool surface) {
+  const std::string contact = surface ? R"(
+[[surfaces]]
+name = "bottom"
+node_set = "bottom"
+[[surfaces]]
+name = "top"
+node_set = "top"
+[[contacts]]
+name = "crossing"
+type = "surface"
+between = ["bottom", "top"]
+law = "linear"
+penalty = 1e4
+)"
+                                      : R"(
+[[splines]]
+name = "bottom"
+node_set = "bottom"
+radius = 0.01
+[[splines]]
+name = "top"
+node_set = "top"
+radius = 0.01
+[[contacts]]
+name = "crossing"
+type = "spline"
+between = ["bottom", "top"]
+law = "linear"
+penalty = 1e5
+)";
+  return read_deck_string(R"(
+title = "crossing beams 1 mm apart"
+[[materials]]
+name = "rod"
+E = 1e9
+nu = 0.3
+density = 1000.0
+[[sections]]
+name = "rod"
+shape = "circle"
+radius = 0.01
+material = "rod"
+[[lines]]
+name = "bottom"
+from = [-0.5, 0.025, 0.0]
+to = [0.5, 0.025, 0.0]
+elements = 10
+section = "rod"
+reference_vector = [0.0, 1.0, 0.0]
+[[lines]]
+name = "top"
+from = [0.025, -0.5, 0.021]
+to = [0.025, 0.5, 0.021]
+elements = 10
+section = "rod"
+reference_vector = [1.0, 0.0, 0.0]
+[[constraints]]
+node_set = "bottom"
+dofs = "all"
+)" + contact + R"(
+[[steps]]
+type = "static"
+end_time = 1.0
+dt = 1.0
+)",
+                          surface ? "surface.toml" : "spline.toml");
+}
+
+TEST(Newton, TheClosingLimitLetsAnOpenPairPenetrateTheAllowanceInOneCorrection) {
+  // ContactSet::closing_limit: a correction that closes a pair open by g = 1 mm scaled to the
+  // fraction where the pair penetrates allowance x r, to first order; exact for a translation of
+  // a straight beam (the contact point stays), which the evaluation after the move confirms.
+  constexpr double kGap = 1e-3, kRadius = 0.01, kAllowance = 0.02, kDrop = 4e-3;
+  for (const bool surface : {false, true}) {
+    SCOPED_TRACE(surface ? "surface contact" : "spline contact");
+    const Model m = gapped_crossing(surface);
+    const Simulation sim(m);
+    State state = sim.state();
+    const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
+    stage->update_candidates(state);
+    ASSERT_EQ(stage->evaluate(state, false), "");
+    ASSERT_EQ(stage->active(), 0);
+    ASSERT_NEAR(stage->min_gap(), kGap, 1e-12);
+    const int n = state.n_nodes();
+    // The top beam (nodes 21 to 41, from 0) translated by `by`.
+    const auto top_moved = [&](const Eigen::Vector3d& by) {
+      Eigen::Matrix3Xd u = Eigen::Matrix3Xd::Zero(3, n);
+      for (int i = 21; i < n; ++i)
+        u.col(i) = by;
+      return u;
+    };
+    const double expected = (kGap + kAllowance * kRadius) / kDrop; // 0.3
+    const Eigen::Matrix3Xd down = top_moved({0, 0, -kDrop});
+    const double limit = stage->closing_limit(down, nullptr, kAllowance);
+    EXPECT_NEAR(limit, expected, 1e-12);
+    // Opening limits nothing, nor does sliding along the top beam (beyond the round-off of the
+    // normal's other components).
+    EXPECT_EQ(stage->closing_limit(top_moved({0, 0, kDrop}), nullptr, kAllowance),
+              std::numeric_limits<double>::infinity());
+    EXPECT_GT(stage->closing_limit(top_moved({0, kDrop, 0}), nullptr, kAllowance), 1e9);
+    // A correction starting 0.5 mm lower (the offset): half the gap left; none where the start
+    // already penetrates.
+    const Eigen::Matrix3Xd half = top_moved({0, 0, -0.5 * kGap});
+    EXPECT_NEAR(stage->closing_limit(down, &half, kAllowance),
+                (0.5 * kGap + kAllowance * kRadius) / kDrop, 1e-12);
+    const Eigen::Matrix3Xd past = top_moved({0, 0, -2 * kGap});
+    EXPECT_EQ(stage->closing_limit(down, &past, kAllowance),
+              std::numeric_limits<double>::infinity());
+    // The configuration the limit allows: the pair penetrates the allowance.
+    state.x += limit * down;
+    stage->update_candidates(state);
+    ASSERT_EQ(stage->evaluate(state, false), "");
+    EXPECT_EQ(stage->active(), 1);
+    EXPECT_NEAR(stage->max_penetration(), kAllowance * kRadius, 1e-12);
+    // An active pair limits nothing: Newton deepens it freely.
+    EXPECT_EQ(stage->closing_limit(down, nullptr, kAllowance),
+              std::numeric_limits<double>::infinity());
+  }
 }
 
 TEST(Newton, ThePatternDropsCouplingsNoCandidateNeeds) {
