@@ -226,40 +226,89 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   std::vector<double> half_compaction(definitions_.size());
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     half_compaction[k] = definitions_[k]->compaction.at(time_) / 2;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, work_.size(), 16),
-      [&](const tbb::blocked_range<std::size_t>& range) {
-        for (std::size_t w = range.begin(); w != range.end(); ++w) {
-          Work& item = work_[w];
-          const Definition& d = *definitions_[item.definition];
-          Eigen::Matrix3d A, B;
-          control_points(d, item.pair, x, A, B);
-          contact::ProjectionStart start;
-          if (item.warm >= 0)
-            start = {committed_[item.warm].xi_A, committed_[item.warm].xi_B, true};
-          // The compaction grows both contact radii by half of it.
-          const double half = half_compaction[item.definition];
-          const double ra = d.radius[item.pair.first] + half;
-          const double rb = d.radius[item.pair.second] + half;
-          const auto& sa = segment_of(d, item.pair.first);
-          const auto& sb = segment_of(d, item.pair.second);
-          contact::SplineContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
-          const contact::PairRates* pair_rates = nullptr;
-          contact::PairRates local_rates;
-          if (rates != nullptr && d.damped) {
-            pair_velocities(d, item.pair, *rates, local_rates);
-            pair_rates = &local_rates;
-          }
-          if (d.line_contact) {
-            // The first segment of a pair is the line contact's slave.
-            contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle_of(d, ra, rb),
-                                       item.result, options, sensitivity, pair_rates);
-          } else {
-            contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options,
-                                    pair_rates, sensitivity);
-          }
-        }
-      });
+  // One work item's projection and contact from `start`.
+  const auto project_item = [&](std::size_t w, const contact::ProjectionStart& start) {
+    Work& item = work_[w];
+    const Definition& d = *definitions_[item.definition];
+    Eigen::Matrix3d A, B;
+    control_points(d, item.pair, x, A, B);
+    // The compaction grows both contact radii by half of it.
+    const double half = half_compaction[item.definition];
+    const double ra = d.radius[item.pair.first] + half;
+    const double rb = d.radius[item.pair.second] + half;
+    const auto& sa = segment_of(d, item.pair.first);
+    const auto& sb = segment_of(d, item.pair.second);
+    contact::SplineContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
+    const contact::PairRates* pair_rates = nullptr;
+    contact::PairRates local_rates;
+    if (rates != nullptr && d.damped) {
+      pair_velocities(d, item.pair, *rates, local_rates);
+      pair_rates = &local_rates;
+    }
+    if (d.line_contact) {
+      // The first segment of a pair is the line contact's slave.
+      contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle_of(d, ra, rb),
+                                 item.result, options, sensitivity, pair_rates);
+    } else {
+      contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options, pair_rates,
+                              sensitivity);
+    }
+  };
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      for (std::size_t w = range.begin(); w != range.end(); ++w) {
+                        contact::ProjectionStart start;
+                        if (const int k = work_[w].warm; k >= 0)
+                          start = {committed_[k].xi_A, committed_[k].xi_B, true};
+                        project_item(w, start);
+                      }
+                    });
+  // The hand-over at a knot (formulation.md §5): a contact point that leaves its pair's range is
+  // the neighbouring pair's, which finds it from its own start. Where the neighbour's segment is
+  // much longer than this one's (a yarn's overhang as one element), its polynomial, extended past
+  // its range, leaves the curve, and from its own start it converged to a point a segment away,
+  // out of range too: no pair owned the contact (the 96 x 96 weave's edge crossings,
+  // performance.md "The closing limit"). So a pair whose point lies out of its range by at most
+  // half a segment, the surfaces overlapping, hands that point to the neighbour on that side
+  // (on both curves where it left both ranges) when that neighbour's point is out of range too:
+  // the neighbour is projected again from it, and keeps its first result unless it now owns a
+  // point. Serial, in the work list's order: the same on any thread count.
+  for (std::size_t w = 0; w < work_.size(); ++w) {
+    const Work& item = work_[w];
+    const contact::SplineContactResult& r = item.result;
+    if (r.status != contact::ProjectionStatus::OutOfRange || !(r.gap < 0))
+      continue;
+    const Definition& d = *definitions_[item.definition];
+    // The neighbouring segment id on the side the point left (or id itself), -1 for none.
+    const auto neighbour = [&](int id, double xi) {
+      const contact::SegmentBasis& b = segment_of(d, id);
+      if (b.owns(xi))
+        return id;
+      if (std::abs(b.local(xi)) > 1.0)
+        return -1;
+      const int next = xi < b.begin() ? id - 1 : id + 1;
+      if (next < 0 || next >= static_cast<int>(d.spline.size()) || d.spline[next] != d.spline[id])
+        return -1;
+      return next;
+    };
+    const int na = neighbour(item.pair.first, r.xi_A), nb = neighbour(item.pair.second, r.xi_B);
+    if (na < 0 || nb < 0)
+      continue;
+    const int n = work_index(Key{item.definition, na, nb});
+    if (n < 0 || work_[n].result.status != contact::ProjectionStatus::OutOfRange)
+      continue;
+    const std::size_t k = static_cast<std::size_t>(n);
+    const contact::SplineContactResult kept = work_[k].result;
+    contact::SplineContactSensitivity kept_sensitivity;
+    if (d.friction)
+      kept_sensitivity = sensitivity_[k];
+    project_item(k, contact::ProjectionStart{r.xi_A, r.xi_B, true});
+    if (work_[k].result.status != contact::ProjectionStatus::Converged) {
+      work_[k].result = kept;
+      if (d.friction)
+        sensitivity_[k] = kept_sensitivity;
+    }
+  }
 
   if (any_friction_) {
     // Friction at the active point contacts, on the histories of the last converged increment
