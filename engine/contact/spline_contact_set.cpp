@@ -254,6 +254,9 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
                               sensitivity);
     }
   };
+  // Each item also notes whether it may hand its point over (below): the serial pass then reads
+  // one byte per item, not the items' results (kilobytes apart).
+  may_hand_over_.assign(work_.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
                     [&](const tbb::blocked_range<std::size_t>& range) {
                       for (std::size_t w = range.begin(); w != range.end(); ++w) {
@@ -261,6 +264,9 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
                         if (const int k = work_[w].warm; k >= 0)
                           start = {committed_[k].xi_A, committed_[k].xi_B, true};
                         project_item(w, start);
+                        const contact::SplineContactResult& r = work_[w].result;
+                        may_hand_over_[w] =
+                            r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0;
                       }
                     });
   // The hand-over at a knot (formulation.md §5): a contact point that leaves its pair's range is
@@ -274,9 +280,11 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   // the neighbour is projected again from it, and keeps its first result unless it now owns a
   // point. Serial, in the work list's order: the same on any thread count.
   for (std::size_t w = 0; w < work_.size(); ++w) {
+    if (!may_hand_over_[w])
+      continue;
     const Work& item = work_[w];
     const contact::SplineContactResult& r = item.result;
-    if (r.status != contact::ProjectionStatus::OutOfRange || !(r.gap < 0))
+    if (r.status != contact::ProjectionStatus::OutOfRange) // handed a point earlier in the pass
       continue;
     const Definition& d = *definitions_[item.definition];
     // The neighbouring segment id on the side the point left (or id itself), -1 for none.

@@ -183,6 +183,9 @@ private:
   /// is its line_penalty / penalty, or 1 / (ra + rb).
   contact::AllAngleOptions all_angle_of(const Definition& d, double ra, double rb) const;
   double dissipated_ = 0; ///< J, by friction over the committed increments
+  /// Per work item of the last projection: its point lies out of range with the surfaces
+  /// overlapping, so it may hand the point to a neighbouring pair (project's hand-over pass).
+  std::vector<char> may_hand_over_;
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;
   /// assemble()'s buffers, kept for their capacity: the active work items, the slots of the
