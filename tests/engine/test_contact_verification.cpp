@@ -2,6 +2,8 @@
 // (F_c = P / (2 + k / eps)) with the spline contact (circular sections) and the surface contact
 // (elliptical sections), and a yarn pulled along another across many segment boundaries.
 #include "beam_models.hpp"
+#include "engine/contact/contact_stage.hpp"
+#include "engine/contact/spline_contact_set.hpp"
 #include "engine/solver/simulation.hpp"
 
 #include <cmath>
@@ -247,6 +249,72 @@ TEST(ContactVerification, SlidingAcrossSegmentBoundariesKeepsTheForceContinuous)
               "per increment %.3f %%\n",
               mean / n, n, segment_changes, 100 * worst);
   EXPECT_LT(worst, 0.01);
+}
+
+TEST(ContactVerification, APointJustBeforeAKnotIsHandedToTheNeighbourWhoseOwnStartFoundNoPoint) {
+  // The hand-over at a knot (SplineContactSet::project, formulation.md §5). A straight beam A
+  // along x whose first element (0 to 0.25 m) has its middle node at 0.15 m, not 0.125: its
+  // spline's first segment, x(s) = 0.125 (2.4 s - 0.8 s^2) for s in [0, 1], ends at the knot
+  // x = 0.2 m; its polynomial, extended, turns back at s = 1.5 (x = 0.225 m) and heads back
+  // towards the knot, as a long overhang element's does (the 96 x 96 weave's edge crossings).
+  // B crosses A at x = 0.19 m, just before that knot, pressed 0.1 mm into it. The second
+  // segment's pair finds the contact point just before its range (out of range, penetrating).
+  // The first segment's pair, warm-started past the turning point (s = 1.9), descends away from
+  // the knot and leaves its neighbourhood: out of range too. Without the hand-over no pair owns
+  // the contact and its force is lost; with it the first segment's pair is projected again from
+  // the second's point and owns it, with the force of a fresh projection.
+  constexpr double kRadius = 0.01, kPenetration = 1e-4, kPenalty = 1e5, kCross = 0.19;
+  Section s = test::stiffness_section(1e7, 1e7, 10.0, 10.0);
+  Model m = test::straight_beam({0, 0, 0}, {1, 0, 0}, 4, s);
+  m.nodes[1].x() = 0.15;
+  const Model b = test::straight_beam({kCross, -0.1, 2 * kRadius - kPenetration},
+                                      {kCross, 0.1, 2 * kRadius - kPenetration}, 2, s,
+                                      Eigen::Vector3d::UnitX());
+  const int offset = test::append_beam(m, b);
+  Spline sa{"A", {}, kRadius}, sb{"B", {}, kRadius};
+  for (int i = 0; i < offset; ++i)
+    sa.nodes.push_back(i);
+  for (int i = offset; i < offset + 5; ++i)
+    sb.nodes.push_back(i);
+  m.splines = {sa, sb};
+  m.spline_contacts.push_back(
+      SplineContactDefinition{"cross", {0}, {1}, {kPenalty, 1.0, 0.0}, false, 0});
+  m.node_sets = {NodeSet{"A_start", {0}}};
+  m.constraints.push_back(test::clamp(0));
+  m.steps.push_back(test::static_step(1.0, 1.0, 1e-9));
+  const Simulation sim(m);
+  const State& state = sim.state();
+
+  // A fresh projection: one pair, on A's first segment, carries eps times the penetration.
+  const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
+  stage->update_candidates(state);
+  ASSERT_EQ(stage->evaluate(state, false), "");
+  ASSERT_EQ(stage->active(), 1);
+  const std::vector<ContactPoint> fresh = stage->points();
+  ASSERT_EQ(fresh.size(), 1u);
+  EXPECT_EQ(fresh[0].segment[0], 0);
+  EXPECT_NEAR(fresh[0].force, kPenalty * kPenetration, 1e-9 * kPenalty * kPenetration);
+  stage->commit();
+
+  // The first segment's committed warm start moved past its turning point, to s = 1.9 (A's
+  // spline has 9 control points, 7 segments of 1 / 7 in xi).
+  SplineContactSet& set = *stage->spline();
+  SplineContactSet::Snapshot snap = set.snapshot();
+  int planted = 0;
+  for (SplineContactSet::Snapshot::Warm& w : snap.committed)
+    if (w.key[1] == 0) { // A's segments are the definition's first ids
+      w.xi_A = 1.9 / 7.0;
+      ++planted;
+    }
+  ASSERT_GE(planted, 1);
+  set.restore(snap);
+  ASSERT_EQ(stage->project(state, false), "");
+  const std::vector<ContactPoint> handed = stage->points();
+  ASSERT_EQ(handed.size(), 1u) << "no pair owns the contact point";
+  EXPECT_EQ(handed[0].segment[0], 0);
+  EXPECT_EQ(handed[0].segment[1], fresh[0].segment[1]);
+  EXPECT_NEAR(handed[0].force, fresh[0].force, 1e-12 * fresh[0].force);
+  EXPECT_NEAR((handed[0].position - fresh[0].position).norm(), 0.0, 1e-12);
 }
 
 } // namespace
