@@ -16,6 +16,7 @@
 #include <tbb/combinable.h>
 #include <tbb/flow_graph.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 namespace yarnsim {
 
@@ -609,16 +610,18 @@ void Simulation::predict(double t_new, double dt) {
 void Simulation::move_along(const Eigen::VectorXd& delta, double s) {
   const std::vector<int>& eq = assembler_->equations();
   const int n = state_.n_nodes();
-  for (int i = 0; i < n; ++i)
-    for (int c = 0; c < 6; ++c) {
-      const int e = eq[6 * i + c];
-      if (e < 0)
-        continue;
-      if (c < 3)
-        state_.x(c, i) += s * delta(e);
-      else
-        state_.alpha(c - 3, i) += s * delta(e);
-    }
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 1024), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i != r.end(); ++i)
+      for (int c = 0; c < 6; ++c) {
+        const int e = eq[6 * i + c];
+        if (e < 0)
+          continue;
+        if (c < 3)
+          state_.x(c, i) += s * delta(e);
+        else
+          state_.alpha(c - 3, i) += s * delta(e);
+      }
+  });
   if (mixed_.active) {
     // x and alpha enter the Gauss points' x', alpha, alpha' linearly within the increment, so
     // the point lambda delta from the correction's start has the linearised strains
@@ -934,18 +937,30 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     report.energy_history.push_back(std::abs(delta.dot(rhs_)));
     lambda = options_.line_search && !damping_gave_up ? next_lambda : 1.0;
     next_lambda = 1;
-    last_du = last_da = 0;
+    // The largest nodal translation and rotation of delta (maxima: the same on any thread
+    // count).
     const std::vector<int>& eq = assembler_->equations();
-    for (int i = 0; i < n; ++i) {
-      double du = 0, da = 0;
-      for (int c = 0; c < 3; ++c) {
-        const int eu = eq[6 * i + c], ea = eq[6 * i + 3 + c];
-        du += eu >= 0 ? delta(eu) * delta(eu) : 0.0;
-        da += ea >= 0 ? delta(ea) * delta(ea) : 0.0;
-      }
-      last_du = std::max(last_du, std::sqrt(du));
-      last_da = std::max(last_da, std::sqrt(da));
-    }
+    const auto [largest_du, largest_da] = tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, n, 1024), std::pair<double, double>{0.0, 0.0},
+        [&](const tbb::blocked_range<int>& range, std::pair<double, double> m) {
+          for (int i = range.begin(); i != range.end(); ++i) {
+            double du = 0, da = 0;
+            for (int c = 0; c < 3; ++c) {
+              const int eu = eq[6 * i + c], ea = eq[6 * i + 3 + c];
+              du += eu >= 0 ? delta(eu) * delta(eu) : 0.0;
+              da += ea >= 0 ? delta(ea) * delta(ea) : 0.0;
+            }
+            m.first = std::max(m.first, std::sqrt(du));
+            m.second = std::max(m.second, std::sqrt(da));
+          }
+          return m;
+        },
+        [](std::pair<double, double> a, std::pair<double, double> b) {
+          return std::pair<double, double>{std::max(a.first, b.first),
+                                           std::max(a.second, b.second)};
+        });
+    last_du = largest_du;
+    last_da = largest_da;
     // Step limit: no node moves by more than the smallest contact radius in one correction
     // (formulation.md "Solution"). A larger correction comes from a near-mechanism of the
     // tangent (a yarn turning about the line through its pinned ends, a floating yarn) and
@@ -961,11 +976,14 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     // the correction starts from, except for the first correction solved at the converged state
     // (same active set): the predictor's motion from it is then the offset.
     if (options_.line_search && contact_ && options_.closing_allowance > 0) {
-      correction_motion_.setZero(3, n);
-      for (int i = 0; i < n; ++i)
-        for (int c = 0; c < 3; ++c)
-          if (const int e = eq[6 * i + c]; e >= 0)
-            correction_motion_(c, i) = delta(e);
+      correction_motion_.resize(3, n);
+      tbb::parallel_for(tbb::blocked_range<int>(0, n, 1024), [&](const tbb::blocked_range<int>& r) {
+        for (int i = r.begin(); i != r.end(); ++i)
+          for (int c = 0; c < 3; ++c) {
+            const int e = eq[6 * i + c];
+            correction_motion_(c, i) = e >= 0 ? delta(e) : 0.0;
+          }
+      });
       if (from_converged)
         predictor_motion_ = state_.x - state_.x_n;
       const double limit =
@@ -987,58 +1005,74 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
   const bool dynamic = step.type == StepType::Dynamic;
   const NewmarkCoefficients nm(step.newmark_beta, step.newmark_gamma, dt);
 
+  // The nodes and elements are updated in parallel; the energies' terms are kept per node and
+  // summed after, in node order, as one loop over the nodes would (the same bits on any thread
+  // count). commit_terms_ (3 x n, J): external work, out-of-plane and mass-proportional damping.
+  commit_terms_.setZero(3, n);
+
   // External work by the trapezoidal rule, with the loads before the nodes are updated.
   const Eigen::Matrix<double, 6, Eigen::Dynamic> load = external_loads(t_new);
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
-    const Eigen::Vector3d dtheta =
-        rotation_vector_of_rodrigues<double>(Eigen::Vector3d(state_.alpha.col(i)));
-    external_work_ += 0.5 * (load.col(i) + load_n_.col(i)).head<3>().dot(du) +
-                      0.5 * (load.col(i) + load_n_.col(i)).tail<3>().dot(dtheta);
-  }
-
-  for (std::size_t e = 0; e < state_.gauss.size(); ++e)
-    state_.gauss[e] = beam_committed_history(assembler_->references()[e], state_.gauss[e],
+  const std::vector<BeamReference>& refs = assembler_->references();
+  tbb::parallel_for(std::size_t{0}, state_.gauss.size(), [&](std::size_t e) {
+    state_.gauss[e] = beam_committed_history(refs[e], state_.gauss[e],
                                              assembler_->nodal_values(state_, static_cast<int>(e)));
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d alpha = state_.alpha.col(i);
-    if (dynamic) {
+  });
+  tbb::parallel_for(tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
+    for (int i = range.begin(); i != range.end(); ++i) {
       const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
-      const Eigen::Vector3d a = nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
-      const Eigen::Vector3d v = nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
-      Eigen::Vector3d W, A;
-      newmark_angular(nm, {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)}, alpha, W, A);
-      // Energy dissipated by the mass-proportional damping c M, J: for translations the work
-      // of the mean damping force over the increment, c m (v_n + v) / 2 . du, the quadrature
-      // the external work uses (with the trapezoidal rule, beta = 1/4, the balance of the
-      // discrete equations); for rotations its rate c W.J W (W the material angular velocity,
-      // J the principal rotary inertias) by the trapezoidal rule. The stiffness-proportional
-      // part is not counted.
-      // The out-of-plane damping's the same way, on the z components alone.
-      if (step.rayleigh_out_of_plane > 0)
-        damping_work_ +=
-            step.rayleigh_out_of_plane * 0.5 * mass_(i) * (state_.v_n(2, i) + v.z()) * du.z();
-      if (step.rayleigh_mass > 0) {
-        const Eigen::Vector3d& J = rotary_inertia_.col(i);
-        const Eigen::Vector3d& W_n = state_.W_n.col(i);
-        damping_work_ += step.rayleigh_mass *
-                         (0.5 * mass_(i) * (state_.v_n.col(i) + v).dot(du) +
-                          0.5 * dt * (W_n.dot(J.cwiseProduct(W_n)) + W.dot(J.cwiseProduct(W))));
+      const Eigen::Vector3d alpha = state_.alpha.col(i);
+      const Eigen::Vector3d dtheta = rotation_vector_of_rodrigues<double>(alpha);
+      commit_terms_(0, i) = 0.5 * (load.col(i) + load_n_.col(i)).head<3>().dot(du) +
+                            0.5 * (load.col(i) + load_n_.col(i)).tail<3>().dot(dtheta);
+      if (dynamic) {
+        const Eigen::Vector3d a =
+            nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
+        const Eigen::Vector3d v =
+            nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
+        Eigen::Vector3d W, A;
+        newmark_angular(nm, {state_.Q_n[i], state_.W_n.col(i), state_.A_n.col(i)}, alpha, W, A);
+        // Energy dissipated by the mass-proportional damping c M, J: for translations the work
+        // of the mean damping force over the increment, c m (v_n + v) / 2 . du, the quadrature
+        // the external work uses (with the trapezoidal rule, beta = 1/4, the balance of the
+        // discrete equations); for rotations its rate c W.J W (W the material angular
+        // velocity, J the principal rotary inertias) by the trapezoidal rule. The
+        // stiffness-proportional part is not counted. The out-of-plane damping's the same way,
+        // on the z components alone.
+        if (step.rayleigh_out_of_plane > 0)
+          commit_terms_(1, i) =
+              step.rayleigh_out_of_plane * 0.5 * mass_(i) * (state_.v_n(2, i) + v.z()) * du.z();
+        if (step.rayleigh_mass > 0) {
+          const Eigen::Vector3d& J = rotary_inertia_.col(i);
+          const Eigen::Vector3d& W_n = state_.W_n.col(i);
+          commit_terms_(2, i) =
+              step.rayleigh_mass *
+              (0.5 * mass_(i) * (state_.v_n.col(i) + v).dot(du) +
+               0.5 * dt * (W_n.dot(J.cwiseProduct(W_n)) + W.dot(J.cwiseProduct(W))));
+        }
+        state_.v_n.col(i) = v;
+        state_.a_n.col(i) = a;
+        state_.W_n.col(i) = W;
+        state_.A_n.col(i) = A;
+      } else {
+        state_.v_n.col(i).setZero();
+        state_.a_n.col(i).setZero();
+        state_.W_n.col(i).setZero();
+        state_.A_n.col(i).setZero();
       }
-      state_.v_n.col(i) = v;
-      state_.a_n.col(i) = a;
-      state_.W_n.col(i) = W;
-      state_.A_n.col(i) = A;
-    } else {
-      state_.v_n.col(i).setZero();
-      state_.a_n.col(i).setZero();
-      state_.W_n.col(i).setZero();
-      state_.A_n.col(i).setZero();
+      state_.Q_n[i] = orthonormalized(rodrigues_rotation<double>(alpha) * state_.Q_n[i]);
+      state_.rotation_n.col(i) =
+          unwrap_rotation(state_.Q_n[i] * Q0_[i].transpose(), state_.rotation_n.col(i));
     }
-    state_.Q_n[i] = orthonormalized(rodrigues_rotation<double>(alpha) * state_.Q_n[i]);
-    state_.rotation_n.col(i) =
-        unwrap_rotation(state_.Q_n[i] * Q0_[i].transpose(), state_.rotation_n.col(i));
-  }
+  });
+  for (int i = 0; i < n; ++i)
+    external_work_ += commit_terms_(0, i);
+  if (dynamic)
+    for (int i = 0; i < n; ++i) {
+      if (step.rayleigh_out_of_plane > 0)
+        damping_work_ += commit_terms_(1, i);
+      if (step.rayleigh_mass > 0)
+        damping_work_ += commit_terms_(2, i);
+    }
   if (contact_) {
     contact_->commit();
     // The pattern grows with every pair within reach an iteration meets, and attempts that

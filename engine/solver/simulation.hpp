@@ -285,6 +285,8 @@ private:
   /// The closing limit's buffers (attempt), kept for their capacity: the correction's nodal
   /// translations and the predictor's motion from the converged state (3 x n_nodes, m).
   Eigen::Matrix3Xd correction_motion_, predictor_motion_;
+  /// commit()'s per-node energy terms (3 x n_nodes, J), kept for their capacity.
+  Eigen::Matrix3Xd commit_terms_;
   Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1
   int total_iterations_ = 0;
   StageTimes stage_times_;
