@@ -274,8 +274,8 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   // much longer than this one's (a yarn's overhang as one element), its polynomial, extended past
   // its range, leaves the curve, and from its own start it converged to a point a segment away,
   // out of range too: no pair owned the contact (the 96 x 96 weave's edge crossings,
-  // performance.md "The closing limit"). So a pair whose point lies out of its range by at most
-  // half a segment, the surfaces overlapping, hands that point to the neighbour on that side
+  // performance.md "The closing limit"). So a pair whose point lies out of its range within the
+  // neighbouring segment's range, the surfaces overlapping, hands that point to that neighbour
   // (on both curves where it left both ranges) when that neighbour's point is out of range too:
   // the neighbour is projected again from it, and keeps its first result unless it now owns a
   // point. Serial, in the work list's order: the same on any thread count.
@@ -287,12 +287,13 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
     if (r.status != contact::ProjectionStatus::OutOfRange) // handed a point earlier in the pass
       continue;
     const Definition& d = *definitions_[item.definition];
-    // The neighbouring segment id on the side the point left (or id itself), -1 for none.
+    // The neighbouring segment id on the side the point left (or id itself), -1 for none: the
+    // point lies within that neighbour's range (the ranges are equally long in xi).
     const auto neighbour = [&](int id, double xi) {
       const contact::SegmentBasis& b = segment_of(d, id);
       if (b.owns(xi))
         return id;
-      if (std::abs(b.local(xi)) > 1.0)
+      if (std::abs(b.local(xi)) > 1.5)
         return -1;
       const int next = xi < b.begin() ? id - 1 : id + 1;
       if (next < 0 || next >= static_cast<int>(d.spline.size()) || d.spline[next] != d.spline[id])
@@ -617,9 +618,21 @@ void SplineContactSet::commit() {
   for (Work& item : work_) {
     const auto& r = item.result;
     item.warm = -1;
-    // A point contact that was not evaluated (nearly parallel chords) leaves no warm start.
+    // A point contact that was not evaluated (nearly parallel chords) leaves no warm start, nor
+    // does a projection that left a segment's neighbourhood (more than max_extension segments
+    // past its range): started there again, it would leave again, and where the segment's
+    // extended polynomial turns back (a long overhang element's) it would never come back to a
+    // point in its range (the 96 x 96 weave's edge crossings, performance.md "The hand-over at
+    // a knot, completed"). It starts cold, from the segments' middles.
     if (r.status == contact::ProjectionStatus::NotConverged || !r.point_evaluated)
       continue;
+    if (r.status == contact::ProjectionStatus::OutOfRange) {
+      const Definition& d = *definitions_[item.definition];
+      const double limit = 0.5 + contact::SplineContactOptions{}.max_extension;
+      if (std::abs(segment_of(d, item.pair.first).local(r.xi_A)) > limit ||
+          std::abs(segment_of(d, item.pair.second).local(r.xi_B)) > limit)
+        continue;
+    }
     item.warm = static_cast<int>(next_committed_.size());
     Snapshot::Warm& warm = next_committed_.emplace_back(Snapshot::Warm{
         Key{item.definition, item.pair.first, item.pair.second}, r.xi_A, r.xi_B, r.active});

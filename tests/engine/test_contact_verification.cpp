@@ -251,25 +251,21 @@ TEST(ContactVerification, SlidingAcrossSegmentBoundariesKeepsTheForceContinuous)
   EXPECT_LT(worst, 0.01);
 }
 
-TEST(ContactVerification, APointJustBeforeAKnotIsHandedToTheNeighbourWhoseOwnStartFoundNoPoint) {
-  // The hand-over at a knot (SplineContactSet::project, formulation.md §5). A straight beam A
-  // along x whose first element (0 to 0.25 m) has its middle node at 0.15 m, not 0.125: its
-  // spline's first segment, x(s) = 0.125 (2.4 s - 0.8 s^2) for s in [0, 1], ends at the knot
-  // x = 0.2 m; its polynomial, extended, turns back at s = 1.5 (x = 0.225 m) and heads back
-  // towards the knot, as a long overhang element's does (the 96 x 96 weave's edge crossings).
-  // B crosses A at x = 0.19 m, just before that knot, pressed 0.1 mm into it. The second
-  // segment's pair finds the contact point just before its range (out of range, penetrating).
-  // The first segment's pair, warm-started past the turning point (s = 1.9), descends away from
-  // the knot and leaves its neighbourhood: out of range too. Without the hand-over no pair owns
-  // the contact and its force is lost; with it the first segment's pair is projected again from
-  // the second's point and owns it, with the force of a fresh projection.
-  constexpr double kRadius = 0.01, kPenetration = 1e-4, kPenalty = 1e5, kCross = 0.19;
+/// The hand-over at a knot (SplineContactSet::project, formulation.md §5). A straight beam A
+/// along x whose first element (0 to 0.25 m) has its middle node at 0.15 m, not 0.125: its
+/// spline's first segment, x(s) = 0.125 (2.4 s - 0.8 s^2) for s in [0, 1], ends at the knot
+/// x = 0.2 m; its polynomial, extended, turns back at s = 1.5 (x = 0.225 m) and heads back
+/// towards the knot, as a long overhang element's does (the 96 x 96 weave's edge crossings).
+/// B (2 elements) crosses A at x = `cross`, its axis `depth` below the two contact radii
+/// `radius` (a penetration; negative: open).
+Model knot_crossing(double cross, double depth, double radius = 0.01) {
+  const double kRadius = radius;
   Section s = test::stiffness_section(1e7, 1e7, 10.0, 10.0);
   Model m = test::straight_beam({0, 0, 0}, {1, 0, 0}, 4, s);
   m.nodes[1].x() = 0.15;
-  const Model b = test::straight_beam({kCross, -0.1, 2 * kRadius - kPenetration},
-                                      {kCross, 0.1, 2 * kRadius - kPenetration}, 2, s,
-                                      Eigen::Vector3d::UnitX());
+  const Model b =
+      test::straight_beam({cross, -0.1, 2 * kRadius - depth}, {cross, 0.1, 2 * kRadius - depth}, 2,
+                          s, Eigen::Vector3d::UnitX());
   const int offset = test::append_beam(m, b);
   Spline sa{"A", {}, kRadius}, sb{"B", {}, kRadius};
   for (int i = 0; i < offset; ++i)
@@ -278,43 +274,96 @@ TEST(ContactVerification, APointJustBeforeAKnotIsHandedToTheNeighbourWhoseOwnSta
     sb.nodes.push_back(i);
   m.splines = {sa, sb};
   m.spline_contacts.push_back(
-      SplineContactDefinition{"cross", {0}, {1}, {kPenalty, 1.0, 0.0}, false, 0});
+      SplineContactDefinition{"cross", {0}, {1}, {1e5, 1.0, 0.0}, false, 0});
   m.node_sets = {NodeSet{"A_start", {0}}};
   m.constraints.push_back(test::clamp(0));
   m.steps.push_back(test::static_step(1.0, 1.0, 1e-9));
-  const Simulation sim(m);
-  const State& state = sim.state();
+  return m;
+}
 
-  // A fresh projection: one pair, on A's first segment, carries eps times the penetration.
-  const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
-  stage->update_candidates(state);
-  ASSERT_EQ(stage->evaluate(state, false), "");
-  ASSERT_EQ(stage->active(), 1);
-  const std::vector<ContactPoint> fresh = stage->points();
-  ASSERT_EQ(fresh.size(), 1u);
-  EXPECT_EQ(fresh[0].segment[0], 0);
-  EXPECT_NEAR(fresh[0].force, kPenalty * kPenetration, 1e-9 * kPenalty * kPenetration);
-  stage->commit();
-
-  // The first segment's committed warm start moved past its turning point, to s = 1.9 (A's
-  // spline has 9 control points, 7 segments of 1 / 7 in xi).
-  SplineContactSet& set = *stage->spline();
+/// The committed warm starts of the pairs of A's first segment (the definition's first ids)
+/// moved past its turning point, to s = 1.9 (A's spline has 9 control points, 7 segments of
+/// 1 / 7 in xi). Returns how many.
+int plant_past_the_turn(SplineContactSet& set) {
   SplineContactSet::Snapshot snap = set.snapshot();
   int planted = 0;
   for (SplineContactSet::Snapshot::Warm& w : snap.committed)
-    if (w.key[1] == 0) { // A's segments are the definition's first ids
+    if (w.key[1] == 0) {
       w.xi_A = 1.9 / 7.0;
       ++planted;
     }
-  ASSERT_GE(planted, 1);
   set.restore(snap);
+  return planted;
+}
+
+TEST(ContactVerification, APointInTheNeighbouringSegmentIsHandedToItWhereItsOwnStartFoundNone) {
+  // B pressed 0.1 mm into A at x = 0.19 m, just before the knot, and at 0.125 m, past the
+  // middle of the first segment (more than half a segment from the second's range; contact
+  // radii of 0.05 m, so that the second segment's box, from the middle node at 0.15 m, reaches
+  // it). The second segment's pair finds the contact point before its range (out of range,
+  // penetrating). The first segment's pair, warm-started past its turning point, descends away
+  // from the knot and leaves its neighbourhood: out of range too. Without the hand-over no pair
+  // owns the contact and its force is lost (at 0.125 m too, 1.34 segments before the second's
+  // middle, where the hand-over reached half a segment only, as at the 96 x 96 weave's edge); with
+  // it the first segment's pair is projected again from the second's point and owns it, with the
+  // force of a fresh projection.
+  constexpr double kPenetration = 1e-4, kPenalty = 1e5;
+  for (const auto [cross, radius] : {std::pair{0.19, 0.01}, std::pair{0.125, 0.05}}) {
+    SCOPED_TRACE(cross);
+    const Model m = knot_crossing(cross, kPenetration, radius);
+    const Simulation sim(m);
+    const State& state = sim.state();
+    // A fresh projection: one pair, on A's first segment, carries eps times the penetration.
+    const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
+    stage->update_candidates(state);
+    ASSERT_EQ(stage->evaluate(state, false), "");
+    ASSERT_EQ(stage->active(), 1);
+    const std::vector<ContactPoint> fresh = stage->points();
+    ASSERT_EQ(fresh.size(), 1u);
+    EXPECT_EQ(fresh[0].segment[0], 0);
+    EXPECT_NEAR(fresh[0].force, kPenalty * kPenetration, 1e-9 * kPenalty * kPenetration);
+    stage->commit();
+
+    ASSERT_GE(plant_past_the_turn(*stage->spline()), 1);
+    ASSERT_EQ(stage->project(state, false), "");
+    const std::vector<ContactPoint> handed = stage->points();
+    ASSERT_EQ(handed.size(), 1u) << "no pair owns the contact point";
+    EXPECT_EQ(handed[0].segment[0], 0);
+    EXPECT_EQ(handed[0].segment[1], fresh[0].segment[1]);
+    EXPECT_NEAR(handed[0].force, fresh[0].force, 1e-12 * fresh[0].force);
+    EXPECT_NEAR((handed[0].position - fresh[0].position).norm(), 0.0, 1e-12);
+  }
+}
+
+TEST(ContactVerification, AProjectionThatLeftItsSegmentIsNotWarmStartedFromThere) {
+  // B 0.1 mm above A at x = 0.19 m (open: nothing hands a point over). The first segment's
+  // pair, warm-started past its turning point, leaves its neighbourhood. Committed as it is,
+  // that point would start it outside again at every evaluation, and it would never find the
+  // crossing (performance.md, "The hand-over at a knot, completed"): the commit leaves that
+  // pair no warm start, and it starts from the segments' middles.
+  const Model m = knot_crossing(0.19, -1e-4);
+  const Simulation sim(m);
+  const State& state = sim.state();
+  const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
+  stage->update_candidates(state);
+  ASSERT_EQ(stage->evaluate(state, false), "");
+  ASSERT_EQ(stage->active(), 0);
+  stage->commit();
+  SplineContactSet& set = *stage->spline();
+  ASSERT_GE(plant_past_the_turn(set), 1);
   ASSERT_EQ(stage->project(state, false), "");
-  const std::vector<ContactPoint> handed = stage->points();
-  ASSERT_EQ(handed.size(), 1u) << "no pair owns the contact point";
-  EXPECT_EQ(handed[0].segment[0], 0);
-  EXPECT_EQ(handed[0].segment[1], fresh[0].segment[1]);
-  EXPECT_NEAR(handed[0].force, fresh[0].force, 1e-12 * fresh[0].force);
-  EXPECT_NEAR((handed[0].position - fresh[0].position).norm(), 0.0, 1e-12);
+  const std::vector<SplineContactSet::Snapshot::Pair> pairs = set.snapshot().pairs;
+  int left = 0;
+  for (const SplineContactSet::Snapshot::Pair& p : pairs)
+    if (p.key[1] == 0) {
+      EXPECT_EQ(p.status, contact::ProjectionStatus::OutOfRange);
+      EXPECT_GT(p.xi_A, 2.0 / 7.0) << "past the first segment's neighbourhood (s = 2)";
+      ++left;
+    }
+  ASSERT_GE(left, 1);
+  stage->commit();
+  for (const SplineContactSet::Snapshot::Warm& w : set.snapshot().committed)
+    EXPECT_NE(w.key[1], 0) << "a warm start where the projection left: xi_A = " << w.xi_A;
 }
 
 } // namespace
