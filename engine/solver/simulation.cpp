@@ -42,6 +42,18 @@ const char* dof_name(int c) {
   return names[c];
 }
 
+/// Where a node lies along the first spline (a fabric's yarn) that has it, for messages: " (on
+/// spline 'weft95', control point 330 of 793)", or "" for a node on no spline. A scan over the
+/// splines: for messages only.
+std::string on_spline(const Model& model, int node) {
+  for (const Spline& s : model.splines)
+    for (std::size_t k = 0; k < s.nodes.size(); ++k)
+      if (s.nodes[k] == node)
+        return fmt::format(" (on spline '{}', control point {} of {})", s.name, k + 1,
+                           s.nodes.size());
+  return "";
+}
+
 } // namespace
 
 Simulation::Simulation(const Model& model, SimulationOptions options)
@@ -516,8 +528,8 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
       continue;
     const double v = residual(d);
     if (!std::isfinite(v)) {
-      out.veto = fmt::format("the residual is not finite at node {} DOF {}",
-                             model_.node_label(d / 6), dof_name(d % 6));
+      out.veto = fmt::format("the residual is not finite at node {} DOF {}{}",
+                             model_.node_label(d / 6), dof_name(d % 6), on_spline(model_, d / 6));
       return out;
     }
     rhs_(eq[d]) = -v;
@@ -850,15 +862,17 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     }
     if (iter == step.max_iterations)
       return fmt::format("no convergence in {} iterations (relative residual {:.3e}); worst: node "
-                         "{} DOF {}",
+                         "{} DOF {}{}",
                          step.max_iterations, ev.relative,
                          model_.node_label(worst_dof >= 0 ? worst_dof / 6 : 0),
-                         worst_dof >= 0 ? dof_name(worst_dof % 6) : "-");
+                         worst_dof >= 0 ? dof_name(worst_dof % 6) : "-",
+                         worst_dof >= 0 ? on_spline(model_, worst_dof / 6) : "");
     if (iter > 2 && ev.relative > 1e8 * report.residual_history.front())
       return fmt::format("Newton diverged (residual grew from {:.3e} to {:.3e}); worst: node {} "
-                         "DOF {}",
+                         "DOF {}{}",
                          report.residual_history.front(), ev.relative,
-                         model_.node_label(worst_dof / 6), dof_name(worst_dof % 6));
+                         model_.node_label(worst_dof / 6), dof_name(worst_dof % 6),
+                         on_spline(model_, worst_dof / 6));
 
     // The converged state's tangent for the first correction (above): evaluated there, kept
     // where its active set is the predictor's; the predictor is evaluated again otherwise. The

@@ -304,6 +304,42 @@ TEST(Newton, TheClosingLimitLetsAnOpenPairPenetrateTheAllowanceInOneCorrection) 
   }
 }
 
+TEST(Newton, AFailedIncrementNamesTheSplineAndControlPointOfItsWorstNode) {
+  // On a fabric the worst DOF's node number alone does not tell a user which yarn misbehaves
+  // (the 96 x 96 weave's edge yarns: "worst: node 151824 DOF uz"); the message names the spline
+  // (a fabric's yarn) and the node's place along it. The crossing beams, the top one's ends
+  // pushed 3 mm down onto the bottom one, one Newton iteration allowed.
+  Model m = gapped_crossing(false);
+  const auto set_of = [&m](const std::string& name) {
+    for (std::size_t k = 0; k < m.node_sets.size(); ++k)
+      if (m.node_sets[k].name == name)
+        return static_cast<int>(k);
+    ADD_FAILURE() << "no node set " << name;
+    return 0;
+  };
+  for (const char* end : {"top.start", "top.end"}) {
+    PrescribedMotion pm;
+    pm.node_set = set_of(end);
+    pm.displacement = {TimeTable{{0.0}, {0.0}}, TimeTable{{0.0}, {0.0}},
+                       TimeTable{{0.0, 1.0}, {0.0, -3e-3}}};
+    m.prescribed.push_back(pm);
+  }
+  m.steps[0].max_iterations = 1;
+  m.steps[0].dt_min = m.steps[0].dt_initial;
+  Simulation sim(m);
+  try {
+    sim.run();
+    FAIL() << "one iteration cannot converge here";
+  } catch (const ConvergenceError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("no convergence in 1 iterations"), std::string::npos) << what;
+    EXPECT_TRUE(what.find("(on spline 'top', control point ") != std::string::npos ||
+                what.find("(on spline 'bottom', control point ") != std::string::npos)
+        << what;
+    EXPECT_NE(what.find(" of 21)"), std::string::npos) << what;
+  }
+}
+
 TEST(Newton, ThePatternDropsCouplingsNoCandidateNeeds) {
   // Yarns touching from the start (gap = 0): the first increments' attempts meet candidates that
   // the converged state does not keep. Before, the pattern kept every coupling ever met (its
