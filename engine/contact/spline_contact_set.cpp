@@ -270,15 +270,16 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
                       }
                     });
   // The hand-over at a knot (formulation.md §5): a contact point that leaves its pair's range is
-  // the neighbouring pair's, which finds it from its own start. Where the neighbour's segment is
-  // much longer than this one's (a yarn's overhang as one element), its polynomial, extended past
-  // its range, leaves the curve, and from its own start it converged to a point a segment away,
-  // out of range too: no pair owned the contact (the 96 x 96 weave's edge crossings,
-  // performance.md "The closing limit"). So a pair whose point lies out of its range within the
-  // neighbouring segment's range, the surfaces overlapping, hands that point to that neighbour
-  // (on both curves where it left both ranges) when that neighbour's point is out of range too:
-  // the neighbour is projected again from it, and keeps its first result unless it now owns a
-  // point. Serial, in the work list's order: the same on any thread count.
+  // the neighbouring pair's, which finds it from its own start. Where the neighbour's polynomial,
+  // extended past its range, leaves the curve (a yarn's first and last segments: the clamped
+  // end's polynomial turns back about a segment past their knot), from its own start it may
+  // converge to a point a segment away or leave its neighbourhood, out of range too: no pair
+  // owned the contact (the 96 x 96 weave's edge crossings, performance.md "The closing limit").
+  // So a pair whose point lies out of its range within the neighbouring segment's range, the
+  // surfaces overlapping, hands that point to that neighbour (on both curves where it left both
+  // ranges) when that neighbour's point is out of range too: the neighbour is projected again
+  // from it, and keeps its first result unless it now owns a point. Serial, in the work list's
+  // order: the same on any thread count.
   for (std::size_t w = 0; w < work_.size(); ++w) {
     if (!may_hand_over_[w])
       continue;
@@ -621,7 +622,7 @@ void SplineContactSet::commit() {
     // A point contact that was not evaluated (nearly parallel chords) leaves no warm start, nor
     // does a projection that left a segment's neighbourhood (more than max_extension segments
     // past its range): started there again, it would leave again, and where the segment's
-    // extended polynomial turns back (a long overhang element's) it would never come back to a
+    // extended polynomial turns back (a yarn's first and last segments') it would never come to a
     // point in its range (the 96 x 96 weave's edge crossings, performance.md "The hand-over at
     // a knot, completed"). It starts cold, from the segments' middles.
     if (r.status == contact::ProjectionStatus::NotConverged || !r.point_evaluated)

@@ -255,7 +255,8 @@ TEST(ContactVerification, SlidingAcrossSegmentBoundariesKeepsTheForceContinuous)
 /// along x whose first element (0 to 0.25 m) has its middle node at 0.15 m, not 0.125: its
 /// spline's first segment, x(s) = 0.125 (2.4 s - 0.8 s^2) for s in [0, 1], ends at the knot
 /// x = 0.2 m; its polynomial, extended, turns back at s = 1.5 (x = 0.225 m) and heads back
-/// towards the knot, as a long overhang element's does (the 96 x 96 weave's edge crossings).
+/// towards the knot, as a yarn's first segment's does a little later (at s = 2 for equally
+/// spaced nodes: the 96 x 96 weave's edge crossings, at the crossing yarns' first segments).
 /// B (2 elements) crosses A at x = `cross`, its axis `depth` below the two contact radii
 /// `radius` (a penetration; negative: open).
 Model knot_crossing(double cross, double depth, double radius = 0.01) {
