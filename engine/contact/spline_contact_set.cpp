@@ -628,10 +628,19 @@ void SplineContactSet::commit() {
     if (r.status == contact::ProjectionStatus::NotConverged || !r.point_evaluated)
       continue;
     if (r.status == contact::ProjectionStatus::OutOfRange) {
+      // Only where the segment it left is a spline's first or last: other pairs that left (most
+      // candidates away from their crossing) keep the start at the neighbourhood's edge, from
+      // which they leave again at once (from the middle the paper's k = 1 case's iteration graph
+      // took 10 to 17 % longer).
       const Definition& d = *definitions_[item.definition];
       const double limit = 0.5 + contact::SplineContactOptions{}.max_extension;
-      if (std::abs(segment_of(d, item.pair.first).local(r.xi_A)) > limit ||
-          std::abs(segment_of(d, item.pair.second).local(r.xi_B)) > limit)
+      const auto left_an_end = [&](int id, double xi) {
+        const contact::SegmentBasis& b = segment_of(d, id);
+        const int segment = d.segment[id];
+        const int last = curves_[d.spline[id]].num_segments() - 1;
+        return std::abs(b.local(xi)) > limit && (segment == 0 || segment == last);
+      };
+      if (left_an_end(item.pair.first, r.xi_A) || left_an_end(item.pair.second, r.xi_B))
         continue;
     }
     item.warm = static_cast<int>(next_committed_.size());
