@@ -636,9 +636,7 @@ void SplineContactSet::commit() {
       const double limit = 0.5 + contact::SplineContactOptions{}.max_extension;
       const auto left_an_end = [&](int id, double xi) {
         const contact::SegmentBasis& b = segment_of(d, id);
-        const int segment = d.segment[id];
-        const int last = curves_[d.spline[id]].num_segments() - 1;
-        return std::abs(b.local(xi)) > limit && (segment == 0 || segment == last);
+        return std::abs(b.local(xi)) > limit && (b.begin() == 0.0 || b.closes_end());
       };
       if (left_an_end(item.pair.first, r.xi_A) || left_an_end(item.pair.second, r.xi_B))
         continue;
