@@ -38,14 +38,17 @@ void add_identity_blocks(Mat3x18& m, const Vec6& c, double s) {
 
 } // namespace
 
-CoulombFriction::CoulombFriction(double mu_s, double mu_k, double eps_t, double c_t)
-    : mu_s_(mu_s), mu_k_(mu_k), eps_t_(eps_t), c_t_(c_t) {
-  if (!(finite_non_negative(mu_k) && std::isfinite(mu_s) && mu_s >= mu_k && std::isfinite(eps_t) &&
-        eps_t > 0.0 && finite_non_negative(c_t))) {
+CoulombFriction::CoulombFriction(double mu_s, double mu_k, double eps_t, double c_t,
+                                 double elastic_slip)
+    : mu_s_(mu_s), mu_k_(mu_k), eps_t_(eps_t), c_t_(c_t), elastic_slip_(elastic_slip) {
+  if (!(finite_non_negative(mu_k) && std::isfinite(mu_s) && mu_s >= mu_k &&
+        finite_non_negative(eps_t) && finite_non_negative(c_t) &&
+        finite_non_negative(elastic_slip) && (eps_t > 0.0 || elastic_slip > 0.0))) {
     std::ostringstream msg;
-    msg << "CoulombFriction: expected 0 <= mu_k <= mu_s, eps_t > 0 and c_t >= 0, all finite; "
-        << "found mu_s = " << mu_s << ", mu_k = " << mu_k << ", eps_t = " << eps_t
-        << " N/m, c_t = " << c_t << " N s/m";
+    msg << "CoulombFriction: expected 0 <= mu_k <= mu_s, c_t >= 0, and eps_t > 0 or "
+        << "elastic_slip > 0 (the other >= 0), all finite; found mu_s = " << mu_s
+        << ", mu_k = " << mu_k << ", eps_t = " << eps_t << " N/m, c_t = " << c_t
+        << " N s/m, elastic_slip = " << elastic_slip << " m";
     throw std::invalid_argument(msg.str());
   }
 }
@@ -59,6 +62,7 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   out.active = false;
   out.slipping = false;
   out.mu = 0.0;
+  out.stiffness = 0.0;
   out.elastic_gap.setZero();
   out.sliding_velocity.setZero();
   out.force.setZero();
@@ -100,13 +104,15 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   const Vector3d& n = contact.normal;
   const double f_n = contact.point_force;
 
-  // Stick predictor, slip corrector (Simo & Laursen 1992).
-  const double eps_t = law.eps_t();
+  // Stick predictor, slip corrector (Simo & Laursen 1992), with the stick stiffness of the law
+  // at this normal force (constant, or mu f_n / gamma).
   const double mu = history.stuck ? law.mu_s() : law.mu_k();
+  const double eps_t = law.stiffness(mu, f_n);
   const double gap_norm = g_t.norm();
   const double phi = eps_t * gap_norm - mu * f_n;
   out.active = true;
   out.mu = mu;
+  out.stiffness = eps_t;
   out.elastic_gap = g_t;
   out.slip_function = phi;
   const bool slip = slips(phi, mu * f_n, history.stuck);
@@ -173,7 +179,10 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
     df.noalias() += c * dgt;
     df.noalias() -= (c * t) * (t.transpose() * dgt);
   } else {
+    // f = eps_t(f_n) g_t: with the elastic slip also (mu / gamma) g_t (df_n/dx)^T.
     df.noalias() = eps_t * dgt;
+    if (const double rate = law.stiffness_rate(mu); rate > 0.0)
+      df.noalias() += (rate * g_t) * sensitivity->force.transpose();
   }
   if (damped) {
     // v_rel = sum_k w_k v_k with dv_k/dx_k = vpd I3; v_t = P v_rel, P = I - n n^T;

@@ -32,7 +32,10 @@
 // point, so the linearisation of C(xi) - C(xi^s) is accurate.
 //
 // Law (Simo & Laursen 1992, penalty form): f_tr = eps_t g_t, phi = |f_tr| - mu f_n, with
-// mu = mu_s if the point stuck in the last committed state, else mu_k.
+// mu = mu_s if the point stuck in the last committed state, else mu_k, and eps_t the law's
+// constant penalty or, with an elastic slip gamma, mu f_n / gamma (CoulombFriction::stiffness:
+// the cone's radius in displacement is then gamma; in stick df/dx gains (mu / gamma) g_t
+// (df_n/dx)^T).
 //   stick (phi <= 0): f_c = f_tr, the anchor is kept;
 //   slip  (phi > 0, or phi > -kOnCone mu f_n for a point that slipped in the committed state:
 //         slips() below): f_c = mu f_n g_t / |g_t|, the anchor is pulled onto the cone,
@@ -77,23 +80,46 @@
 namespace yarnsim::contact {
 
 /// Coefficients of the penalty-regularised Coulomb law.
+///
+/// The stick stiffness is either a constant tangential penalty eps_t, or set by an elastic slip
+/// gamma: eps_t(f_n) = mu f_n / gamma, the stiffness of a point that reaches the cone after an
+/// elastic (reversible) slip of gamma whatever its normal force (the "elastic slip" of the
+/// stiffness method of Abaqus/Standard's penalty friction, whose default is 0.5 % of a
+/// characteristic element length). With a constant penalty the cone's radius in displacement,
+/// mu f_n / eps_t, shrinks with the normal force: at crossings that carry 1e-2 N it is 1e-9 m, the
+/// slip direction g_t / |g_t| turns over that length, and Newton's corrections, far longer,
+/// make such points change between stick and slip at every iterate (docs/verification.md, "Bias
+/// extension"). With the elastic slip the radius is gamma at every point, and the stick force
+/// vanishes with the normal force.
 class CoulombFriction {
 public:
   /// mu_s, mu_k: static and kinetic coefficients (dimensionless); eps_t: tangential penalty,
-  /// N/m; c_t: tangential damping, N s/m. Throws std::invalid_argument unless
-  /// 0 <= mu_k <= mu_s, eps_t > 0 and c_t >= 0, all finite.
-  CoulombFriction(double mu_s, double mu_k, double eps_t, double c_t = 0.0);
+  /// N/m (unused with an elastic slip); c_t: tangential damping, N s/m; elastic_slip: gamma, m,
+  /// 0 for the constant penalty. Throws std::invalid_argument unless 0 <= mu_k <= mu_s,
+  /// c_t >= 0, and eps_t > 0 or elastic_slip > 0 with the other >= 0, all finite.
+  CoulombFriction(double mu_s, double mu_k, double eps_t, double c_t = 0.0,
+                  double elastic_slip = 0.0);
 
   double mu_s() const { return mu_s_; }
   double mu_k() const { return mu_k_; }
   double eps_t() const { return eps_t_; }
   double c_t() const { return c_t_; }
+  double elastic_slip() const { return elastic_slip_; }
+  /// The stick stiffness of a point with coefficient mu and normal force f_n (N; per unit length
+  /// on a line contact, and the stiffness then per unit length too), N/m: eps_t, or
+  /// mu f_n / gamma.
+  double stiffness(double mu, double f_n) const {
+    return elastic_slip_ > 0.0 ? mu * f_n / elastic_slip_ : eps_t_;
+  }
+  /// d stiffness / d f_n, 1/m: 0, or mu / gamma.
+  double stiffness_rate(double mu) const { return elastic_slip_ > 0.0 ? mu / elastic_slip_ : 0.0; }
 
 private:
   double mu_s_;
   double mu_k_;
   double eps_t_;
   double c_t_;
+  double elastic_slip_;
 };
 
 /// The stick/slip decision of a return mapping with trial slip function phi and cone radius
@@ -137,8 +163,9 @@ struct SplineFrictionResult {
   /// Evaluated: the normal contact is active on a regular point projection. Otherwise every
   /// field below is zero, and `history` is the input's.
   bool active = false;
-  bool slipping = false; ///< the trial force left the cone (slips(): phi > 0, or on it after slip)
-  double mu = 0.0;       ///< the coefficient used, mu_s or mu_k
+  bool slipping = false;  ///< the trial force left the cone (slips(): phi > 0, or on it after slip)
+  double mu = 0.0;        ///< the coefficient used, mu_s or mu_k
+  double stiffness = 0.0; ///< the stick stiffness used, N/m (CoulombFriction::stiffness)
   Eigen::Vector3d elastic_gap = Eigen::Vector3d::Zero(); ///< trial g_t, metres
   /// v_t, m/s; zero without PairRates or damping.
   Eigen::Vector3d sliding_velocity = Eigen::Vector3d::Zero();
@@ -150,7 +177,7 @@ struct SplineFrictionResult {
   double dissipation = 0.0;
   /// The all-angle contact's point share s (line_contact.hpp; 1 for the point contact alone):
   /// `force`, `residual`, `tangent` and `dissipation` are s times the point's; the stick
-  /// spring's energy is |force|^2 / (2 s eps_t).
+  /// spring's energy is |force|^2 / (2 s stiffness).
   double share = 1.0;
   /// The history to commit if this iterate is accepted: the anchor (kept in stick, returned
   /// onto the cone in slip) and stuck = !slipping.

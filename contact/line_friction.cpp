@@ -38,7 +38,7 @@ void line_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A
   const GaussRule& rule = gauss_rule(all_angle.gauss_points);
   const double reach = radius_A + radius_B;
   const double lambda = all_angle.line_scale;
-  const double eps = friction.eps_t() * lambda; // N/m^2
+
   for (int i = 0; i < rule.n; ++i) {
     if (!(mask & (1u << i)))
       continue;
@@ -61,6 +61,10 @@ void line_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A
     const J3 g_t{{tb.c[0] * delta, tb.c[1] * delta, tb.c[2] * delta}};
     const double gap_norm = value(g_t).norm();
     const double mu = h.stuck ? friction.mu_s() : friction.mu_k();
+    // Stick stiffness per unit length, N/m^2: lambda eps_t, or mu f / gamma with an elastic slip
+    // (f = lambda f(p) the line force per unit length, CoulombFriction::stiffness).
+    const double eps = friction.elastic_slip() > 0.0 ? friction.stiffness(mu, f_line.v)
+                                                     : friction.eps_t() * lambda;
     const double phi = eps * gap_norm - mu * f_line.v; // N/m: K |g_t| - mu N over W
     const bool slip = slips(phi, mu * f_line.v, h.stuck);
     J3 f;
@@ -79,7 +83,9 @@ void line_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A
       point.slip_increment = std::max(gap_norm - mu * f_line.v / eps, 0.0);
       point.dissipation = mu * normal.v * point.slip_increment;
     } else {
-      const J stiffness = eps * weight;
+      // K = eps W; with the elastic slip mu N / gamma, a jet through N = W f.
+      const J stiffness =
+          friction.elastic_slip() > 0.0 ? friction.stiffness_rate(mu) * normal : eps * weight;
       for (int d = 0; d < 3; ++d)
         f.c[d] = stiffness * g_t.c[d];
     }

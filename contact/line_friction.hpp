@@ -20,12 +20,14 @@
 // quadrature weight of the line potential: metres of A carried by the point, times the line
 // share), lambda = line_scale (1/m) and f(p) the normal law,
 //   normal force       N   = W lambda f(p_i)                              [N]
-//   stick stiffness    K   = W lambda eps_t                               [N/m]
+//   stick stiffness    K   = W lambda eps_t, or mu N / gamma with an      [N/m]
+//                            elastic slip gamma (friction.hpp; a jet through N)
 //   trial              f   = K g_t,  phi = K |g_t| - mu N  (mu = mu_s after stick, mu_k after
 //                                                            slip; slips() of friction.hpp)
 //   slip               f   = mu N g_t / |g_t|, the anchor returned onto the cone,
 //                      v^s <- v + (v^s - v) mu f(p) / (eps_t |g_t|), slip |g_t| - mu f(p) / eps_t,
-//                      dissipation mu N times it.
+//                      dissipation mu N times it (eps_t lambda read as mu lambda f(p) / gamma
+//                      with the elastic slip: the radius gamma).
 // W lambda cancels in the stick/slip decision (eps_t |g_t| against mu f(p)), so a point's slip
 // does not depend on its share: the line share fades the line friction out exactly as it fades
 // the line load, and the line penalty per unit length of line_contact.hpp, eps lambda, has the

@@ -58,6 +58,7 @@ void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
   out.active = false;
   out.slipping = false;
   out.mu = 0.0;
+  out.stiffness = 0.0;
   out.elastic_gap.setZero();
   out.sliding_velocity.setZero();
   out.force.setZero();
@@ -94,30 +95,34 @@ void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
   const double f_n = contact.force;
   const double w = contact.share;
 
-  // Stick predictor, slip corrector (Simo & Laursen 1992), with the penalty w eps_t.
-  const double eps_t = law.eps_t();
+  // Stick predictor, slip corrector (Simo & Laursen 1992), with the penalty w eps_t, or with an
+  // elastic slip gamma mu f_n / gamma (f_n = w f: the radius gamma on every share).
   const double mu = history.stuck ? law.mu_s() : law.mu_k();
+  const bool elastic = law.elastic_slip() > 0.0;
+  const double eps_t = law.eps_t();
+  const double k = elastic ? law.stiffness(mu, f_n) : w * eps_t; // N/m
   const double gap_norm = g_t.norm();
-  const double phi = w * eps_t * gap_norm - mu * f_n;
+  const double phi = k * gap_norm - mu * f_n;
   out.active = true;
   out.mu = mu;
+  out.stiffness = k;
   out.elastic_gap = g_t;
   out.slip_function = phi;
   const bool slip = slips(phi, mu * f_n, history.stuck);
   out.history.stuck = !slip;
-  Vector3d f = (w * eps_t) * g_t;
+  Vector3d f = k * g_t;
   Vector3d t = Vector3d::Zero();
   if (slip) {
-    // |g_t| > (1 - kOnCone) mu f_n / (w eps_t) >= 0 here.
+    // |g_t| > (1 - kOnCone) mu f_n / k >= 0 here.
     out.slipping = true;
     t = g_t / gap_norm;
     f = (mu * f_n) * t;
-    const double scale = mu * f_n / (w * eps_t * gap_norm); // in [0, 1 + kOnCone)
+    const double scale = mu * f_n / (k * gap_norm); // in [0, 1 + kOnCone)
     out.history.zeta_A = contact.zeta_A - delta(0) * scale;
     out.history.theta_A = wrap_positive(contact.theta_A - delta(1) * scale);
     out.history.zeta_B = contact.zeta_B - delta(2) * scale;
     out.history.theta_B = wrap_positive(contact.theta_B - delta(3) * scale);
-    out.slip_increment = std::max(gap_norm - mu * f_n / (w * eps_t), 0.0);
+    out.slip_increment = std::max(gap_norm - mu * f_n / k, 0.0);
     out.dissipation = mu * f_n * out.slip_increment;
   }
   // Tangential damping on the relative velocity of the contact points at fixed coordinates:
@@ -177,8 +182,12 @@ void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
     df.noalias() = (mu * t) * sensitivity->force.transpose();
     df.noalias() += cf * dgt;
     df.noalias() -= (cf * t) * (t.transpose() * dgt);
+  } else if (elastic) {
+    // k = mu f_n / gamma, f_n = w f: dk/dd = (mu / gamma) df_n/dd, the share's part included.
+    df.noalias() = k * dgt;
+    df.noalias() += (law.stiffness_rate(mu) * g_t) * sensitivity->force.transpose();
   } else {
-    df.noalias() = (w * eps_t) * dgt;
+    df.noalias() = k * dgt;
     df.noalias() += (eps_t * g_t) * sensitivity->share.transpose();
   }
   if (damped) {

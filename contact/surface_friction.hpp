@@ -45,7 +45,10 @@
 // the spline kernel's law.
 //
 // Law (Simo & Laursen 1992, penalty form): f_tr = w eps_t g_t, phi = |f_tr| - mu f_n, with
-// mu = mu_s if the point stuck in the last committed state, else mu_k.
+// mu = mu_s if the point stuck in the last committed state, else mu_k. With an elastic slip
+// gamma (friction.hpp, CoulombFriction::stiffness) w eps_t reads mu f_n / gamma throughout: the
+// share enters through f_n = w f, the cone's radius is gamma, and in stick df/dd gains
+// (mu / gamma) g_t (df_n/dd)^T in place of the share's eps_t g_t (dw/dd)^T.
 //   stick (phi <= 0): f = f_tr, the anchor is kept;
 //   slip  (phi > 0, or on the cone to kOnCone after a slip: slips() in friction.hpp):
 //                     f = mu f_n g_t / |g_t|, the anchor is pulled onto the cone,
@@ -120,8 +123,9 @@ struct SurfaceFrictionResult {
   /// Evaluated: the normal contact is active on a regular projection. Otherwise every field
   /// below is zero, and `history` is the input's.
   bool active = false;
-  bool slipping = false; ///< the trial force left the cone (slips(): phi > 0, or on it after slip)
-  double mu = 0.0;       ///< the coefficient used, mu_s or mu_k
+  bool slipping = false;  ///< the trial force left the cone (slips(): phi > 0, or on it after slip)
+  double mu = 0.0;        ///< the coefficient used, mu_s or mu_k
+  double stiffness = 0.0; ///< the stick stiffness used, N/m: w eps_t, or mu f_n / gamma
   Eigen::Vector3d elastic_gap = Eigen::Vector3d::Zero(); ///< trial g_t, metres
   /// v_t, m/s; zero without SurfacePairRates or damping (see the file's comment).
   Eigen::Vector3d sliding_velocity = Eigen::Vector3d::Zero();

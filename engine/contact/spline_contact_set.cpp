@@ -113,7 +113,8 @@ SplineContactSet::SplineContactSet(const Model& model) : model_(model) {
     if (def.friction.active()) {
       try {
         d->friction.emplace(def.friction.mu_static, def.friction.mu_kinetic,
-                            def.friction.tangential_penalty, def.friction.tangential_damping);
+                            def.friction.tangential_penalty, def.friction.tangential_damping,
+                            def.friction.elastic_slip);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(fmt::format("contact '{}': {}", def.name, e.what()));
       }
@@ -878,10 +879,11 @@ void SplineContactSet::summarise() {
       summary_.active_set = fold_active_pair(summary_.active_set, -1 - work_[w].definition,
                                              work_[w].pair.first, work_[w].pair.second);
     summary_.tangential_force += f.force.norm();
-    // The tangential spring's elastic energy, |f|^2 / (2 s eps_t) (s the all-angle contact's
-    // point share), is stored with the normal one.
-    summary_.potential += f.force.squaredNorm() /
-                          (2.0 * f.share * definitions_[work_[w].definition]->friction->eps_t());
+    // The tangential spring's elastic energy, |f|^2 / (2 s k) (s the all-angle contact's point
+    // share, k the stick stiffness, > 0 where the force is not zero), is stored with the normal
+    // one.
+    if (f.stiffness > 0)
+      summary_.potential += f.force.squaredNorm() / (2.0 * f.share * f.stiffness);
     summary_.dissipation += f.dissipation;
     const Twist& t = twist_[w];
     if (!t.active)

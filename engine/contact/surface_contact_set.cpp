@@ -88,7 +88,8 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
     if (def.friction.active()) {
       const FrictionParameters& f = def.friction;
       try {
-        d->friction.emplace(f.mu_static, f.mu_kinetic, f.tangential_penalty, f.tangential_damping);
+        d->friction.emplace(f.mu_static, f.mu_kinetic, f.tangential_penalty, f.tangential_damping,
+                            f.elastic_slip);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(fmt::format("contact '{}': {}", def.name, e.what()));
       }
@@ -382,11 +383,10 @@ void SurfaceContactSet::summarise() {
       summary_.active_set =
           fold_active_pair(summary_.active_set, -1 - w.definition, w.pair.first, w.pair.second);
     summary_.tangential_force += w.factor * f.force.norm();
-    // The spring's elastic energy |f|^2 / (2 w eps_t) (penalty w eps_t, the share w).
-    const double share = w.result.share;
-    if (share > 0)
-      summary_.potential += w.factor * f.force.squaredNorm() /
-                            (2.0 * share * definitions_[w.definition]->friction->eps_t());
+    // The spring's elastic energy |f|^2 / (2 k) (k the stick stiffness: w eps_t, or
+    // mu f_n / gamma).
+    if (f.stiffness > 0)
+      summary_.potential += w.factor * f.force.squaredNorm() / (2.0 * f.stiffness);
     summary_.dissipation += w.factor * f.dissipation;
     const Twist& t = twist_[k];
     if (!t.active)

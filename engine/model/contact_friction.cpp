@@ -29,8 +29,8 @@ void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParame
                           friction.mu_static, friction.mu_kinetic));
   }
   if (!friction.active()) {
-    for (const char* key : {"tangential_penalty", "tangential_damping", "torsional_friction",
-                            "torsional_radius", "torsional_penalty"})
+    for (const char* key : {"tangential_penalty", "elastic_slip", "tangential_damping",
+                            "torsional_friction", "torsional_radius", "torsional_penalty"})
       if (t.present(key))
         t.error(key, fmt::format("'{}' applies only with friction (a coefficient above 0)", key));
     return;
@@ -44,13 +44,24 @@ void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParame
     friction.torsional_radius = t.number("torsional_radius").value_or(0);   // 0: the default
     friction.torsional_penalty = t.number("torsional_penalty").value_or(0); // 0: the default
   }
-  if (t.present("tangential_penalty"))
+  if (t.present("elastic_slip")) {
+    // The stick stiffness mu f_n / gamma in place of a constant penalty.
+    friction.elastic_slip = t.number("elastic_slip").value_or(0);
+    if (t.present("tangential_penalty"))
+      t.error("tangential_penalty", "give either 'tangential_penalty' (a constant stick "
+                                    "stiffness) or 'elastic_slip' (the stiffness mu f_n / "
+                                    "elastic_slip), not both");
+    if (friction.torsional)
+      t.error("elastic_slip", "'elastic_slip' is not available with torsional_friction = true in "
+                              "this version (the torsional spring needs a constant stiffness): "
+                              "give tangential_penalty instead");
+  } else if (t.present("tangential_penalty"))
     friction.tangential_penalty = t.number("tangential_penalty").value_or(0);
   else if (law.exponent == 1.0)
     friction.tangential_penalty = law.penalty; // N/m, the normal linear penalty
   else
-    t.missing("tangential_penalty",
-              "a number > 0 (N/m), with friction on a power law (whose penalty is not in N/m)");
+    t.missing("tangential_penalty", "a number > 0 (N/m), or an elastic_slip (m), with friction on "
+                                    "a power law (whose penalty is not in N/m)");
 }
 
 } // namespace yarnsim

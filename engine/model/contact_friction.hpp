@@ -1,10 +1,11 @@
 #pragma once
 // The friction keys of a contact table, shared by the model deck's [[contacts]] and the fabric
 // deck's [contact] (docs/input.md): `friction` (mu_s = mu_k), or `static_friction` and
-// `kinetic_friction`; `tangential_penalty` (N/m; default: the normal penalty of a linear law);
+// `kinetic_friction`; `tangential_penalty` (N/m; default: the normal penalty of a linear law)
+// or `elastic_slip` (m: the stick stiffness mu f_n / elastic_slip);
 // `torsional_friction` (true: a friction torque at the crossings), `torsional_radius` (m) and
 // `torsional_penalty` (N m/rad), whose defaults (0 here) the contact stage derives per pair.
-// Each table lists the seven keys in its own TableSpec.
+// Each table lists the eight keys in its own TableSpec.
 
 #include "engine/model/deck_schema.hpp"
 #include "engine/model/model.hpp"
@@ -13,9 +14,10 @@ namespace yarnsim {
 
 /// Reads the friction keys of `t` into `friction` (left frictionless when there are none),
 /// reporting their problems on `t`: both forms given, only one of static and kinetic, kinetic
-/// above static, a tangential penalty or torsional key without friction, a torsional radius or
-/// penalty without torsional_friction = true, a tangential penalty missing with a power law
-/// (whose penalty is not in N/m). `law` is the table's normal law.
+/// above static, a tangential penalty, elastic slip or torsional key without friction, a
+/// torsional radius or penalty without torsional_friction = true, both a tangential penalty and
+/// an elastic slip, an elastic slip with torsional friction (not available), a tangential penalty
+/// missing with a power law (whose penalty is not in N/m). `law` is the table's normal law.
 void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParameters& law,
                            FrictionParameters& friction);
 

@@ -216,6 +216,7 @@ constexpr KeySpec kContactKeys[] = {
     {"static_friction", Type::Number, kOptional, kNonNegative},
     {"kinetic_friction", Type::Number, kOptional, kNonNegative},
     {"tangential_penalty", Type::Number, kOptional, kPositive},
+    {"elastic_slip", Type::Number, kOptional, kPositive},
     {"tangential_damping", Type::Number, kOptional, kNonNegative},
     {"torsional_friction", Type::Boolean},
     {"torsional_radius", Type::Number, kOptional, kPositive},
@@ -1470,10 +1471,23 @@ private:
     }
   }
 
+  /// Friction's `elastic_slip` gives a stick stiffness that follows the normal force, which the
+  /// explicit path's stable step cannot bound before the run: reported at the key when the deck
+  /// has an explicit step.
+  void contact_elastic_slip_steps(const CheckedTable& t) const {
+    if (t.present("elastic_slip") && explicit_step_ != nullptr)
+      t.error("elastic_slip",
+              fmt::format("'elastic_slip' is not available on the explicit path in this version "
+                          "(its stable step needs a constant stick stiffness; {} is explicit): "
+                          "give tangential_penalty instead",
+                          explicit_step_->path()));
+  }
+
   /// Contact damping (the law's normal `damping`, friction's `tangential_damping`) acts through
   /// the velocities of implicit dynamic steps: reported at the key when the deck has an explicit
   /// step (not available there) or no dynamic step (it would act on nothing).
   void contact_damping_steps(const CheckedTable& t, double normal, double tangential) const {
+    contact_elastic_slip_steps(t);
     for (const auto& [key, value] :
          {std::pair<const char*, double>{"damping", normal}, {"tangential_damping", tangential}}) {
       if (!(value > 0))

@@ -170,9 +170,10 @@ struct InterfaceLawParameters {
 /// and a return mapping onto the cone |f_t| <= mu f_n, mu_static bounding a point that stuck in
 /// the last increment, mu_kinetic one that slipped. Frictionless when both coefficients are 0.
 struct FrictionParameters {
-  double mu_static = 0;          ///< -
-  double mu_kinetic = 0;         ///< -, <= mu_static
-  double tangential_penalty = 0; ///< N/m, > 0 when there is friction
+  double mu_static = 0;  ///< -
+  double mu_kinetic = 0; ///< -, <= mu_static
+  /// N/m, > 0 when there is friction with a constant tangential penalty; 0 with an elastic slip.
+  double tangential_penalty = 0;
   /// c_t, N s/m: a dashpot on the tangential sliding velocity beside the Coulomb element
   /// (contact/friction.hpp); dynamic steps only (the velocities of the time integrator).
   double tangential_damping = 0;
@@ -186,6 +187,9 @@ struct FrictionParameters {
   double torsional_radius = 0;
   /// k_r, N m/rad; 0: tangential_penalty rho^2.
   double torsional_penalty = 0;
+  /// gamma, m: the stick stiffness mu f_n / gamma of every point, in place of the constant
+  /// tangential penalty (contact/friction.hpp, CoulombFriction); 0: the tangential penalty.
+  double elastic_slip = 0;
   bool active() const { return mu_static > 0 || mu_kinetic > 0; }
 };
 

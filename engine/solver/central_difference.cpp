@@ -362,6 +362,11 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
     auto consider = [&](const std::string& name, const InterfaceLawParameters& law,
                         const FrictionParameters& friction, double m_a, double m_b, double r_min,
                         double torsion_per_m2) {
+      if (friction.elastic_slip > 0)
+        throw std::invalid_argument(fmt::format(
+            "contact '{}': elastic_slip is not available on the explicit path (its stable step "
+            "needs a constant stick stiffness: give a tangential_penalty)",
+            name));
       const double p = std::max(2 * sim.contact_->max_penetration(), 0.1 * r_min);
       double k = law.penalty * law.exponent * std::pow(p, law.exponent - 1);
       if (friction.active())

@@ -214,6 +214,7 @@ constexpr KeySpec kContactKeys[] = {
     {"static_friction", Type::Number, kOptional, kNonNegative},
     {"kinetic_friction", Type::Number, kOptional, kNonNegative},
     {"tangential_penalty", Type::Number, kOptional, kPositive},
+    {"elastic_slip", Type::Number, kOptional, kPositive},
     {"tangential_damping", Type::Number, kOptional, kNonNegative},
     {"same_direction", Type::Boolean},
     {"torsional_friction", Type::Boolean},
@@ -414,6 +415,12 @@ public:
                                        "this version)");
     if (contact) {
       read_contact_friction(*contact, law, friction);
+      if (contact->present("elastic_slip") && loading && loading->type == StepType::Explicit)
+        contact->error("elastic_slip",
+                       fmt::format("'elastic_slip' is not available on the explicit path in this "
+                                   "version (its stable step needs a constant stick stiffness; {} "
+                                   "type = \"explicit\"): give tangential_penalty instead",
+                                   block));
       // Contact damping acts through the velocities of implicit dynamic steps.
       for (const auto& [damping, value] : {std::pair<const char*, double>{"damping", law.damping},
                                            {"tangential_damping", friction.tangential_damping}}) {

@@ -95,6 +95,11 @@ TEST(SplineFriction, LawRejectsBadCoefficients) {
   EXPECT_THROW(CoulombFriction(std::numeric_limits<double>::quiet_NaN(), 0.2, 1e5),
                std::invalid_argument);
   EXPECT_THROW(CoulombFriction(0.3, 0.2, INFINITY), std::invalid_argument);
+  // An elastic slip in place of the penalty; neither, or a negative one, is an error.
+  EXPECT_NO_THROW(CoulombFriction(0.3, 0.2, 0.0, 0.0, 1e-5));
+  EXPECT_THROW(CoulombFriction(0.3, 0.2, 0.0, 0.0, 0.0), std::invalid_argument);
+  EXPECT_THROW(CoulombFriction(0.3, 0.2, 1e5, 0.0, -1e-5), std::invalid_argument);
+  EXPECT_THROW(CoulombFriction(0.3, 0.2, 1e5, 0.0, INFINITY), std::invalid_argument);
 }
 
 TEST(SplineFriction, SensitivityMatchesCentralDifferencesAndLeavesTheContactAlone) {
@@ -179,9 +184,13 @@ TEST(SplineFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
   const DampedLaw damped(std::make_shared<LinearPenalty>(kEps), 20.0);
   int count[2][2] = {{0, 0}, {0, 0}}; // [slip][anchor across a knot]
   int dampened = 0;
+  int elastic_count[2] = {0, 0};                 // [slip], with an elastic slip
   double worst[2][2] = {{0.0, 0.0}, {0.0, 0.0}}; // [slip][damped]
   int tested = 0;
-  while (tested < 64) {
+  // The last 32 configurations set the stick stiffness by an elastic slip (mu f_n / gamma, its
+  // dependence on f_n in the stick tangent) instead of a constant penalty.
+  while (tested < 96) {
+    const bool elastic = tested >= 64;
     const int sa = seg(rng);
     const int sb = seg(rng);
     Pair p = random_crossing(rng, sa, sb);
@@ -215,10 +224,15 @@ TEST(SplineFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
         spline_contact(p.xa, *p.ba, kRadius, p.xb, *p.bb, kRadius, {}, law, {}, r);
     ASSERT_TRUE(c.active);
     const Anchored s = anchored(p, c, da, db, stuck, stuck ? mu_s : mu_k, ratio);
-    const CoulombFriction friction(mu_s, mu_k, s.eps_t, with_damping ? 0.05 : 0.0);
+    // The same trial ratio by an elastic slip: gamma = mu f_n / eps_t = |g_t| / ratio.
+    const double gamma = elastic ? (stuck ? mu_s : mu_k) * c.force / s.eps_t : 0.0;
+    const CoulombFriction friction(mu_s, mu_k, elastic ? 0.0 : s.eps_t, with_damping ? 0.05 : 0.0,
+                                   gamma);
     const Evaluation e = evaluate(p, law, friction, s.history, {}, r);
     ASSERT_TRUE(e.friction.active);
     ASSERT_EQ(e.friction.slipping, slip);
+    EXPECT_NEAR(e.friction.stiffness, s.eps_t, 1e-12 * s.eps_t);
+    elastic_count[slip] += elastic ? 1 : 0;
     if (across) {
       // The anchor lies in the neighbouring segment of both curves.
       EXPECT_FALSE(p.ba->owns(s.history.xi_A));
@@ -241,6 +255,8 @@ TEST(SplineFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
     }
   }
   EXPECT_GE(dampened, 12);
+  EXPECT_GE(elastic_count[0], 12);
+  EXPECT_GE(elastic_count[1], 12);
   for (const int slip : {0, 1}) {
     for (const int damping : {0, 1}) {
       std::ostringstream name;
@@ -315,6 +331,43 @@ TEST(SplineFriction, StraightBeamsStickThenSlipAtMuTimesTheNormalForce) {
   }
   EXPECT_GT(stuck, 5);
   EXPECT_GT(slipping, 5);
+}
+
+/// With an elastic slip gamma the stick stiffness is mu f_n / gamma: dragging A from first touch,
+/// the point sticks up to a displacement of gamma at every normal force (the force mu f_n u /
+/// gamma), then slides at mu f_n, and the slip increment is u - gamma.
+TEST(SplineFriction, WithAnElasticSlipEveryNormalForceSticksOverTheSameDisplacement) {
+  const SplineCurve c3(3);
+  const LinearPenalty law(kEps);
+  const double mu = 0.3;
+  const double gamma = 4e-6; // m
+  const CoulombFriction friction(mu, mu, 0.0, 0.0, gamma);
+  for (const double delta : {2e-8, 2e-7, 2e-6}) { // 0.03 to 3 N
+    const double f_n = kEps * delta;
+    const Pair p0 = straight_crossing(c3, delta);
+    const FrictionHistory history = first_touch(evaluate(p0, law, friction, {}).contact);
+    int stuck = 0;
+    int slipping = 0;
+    for (int i = 1; i <= 30; ++i) {
+      const double u = 3.0 * gamma * i / 30.0;
+      if (std::abs(u - gamma) < 1e-3 * gamma)
+        continue; // on the cone: either state within round-off
+      Pair p = p0;
+      p.xa.row(0).array() += u;
+      const Evaluation e = evaluate(p, law, friction, history);
+      ASSERT_TRUE(e.friction.active);
+      ASSERT_NEAR(e.contact.force, f_n, 1e-12 * f_n);
+      EXPECT_EQ(e.friction.slipping, u > gamma) << "u = " << u << ", f_n = " << f_n;
+      (e.friction.slipping ? slipping : stuck)++;
+      const double expected = mu * f_n * std::min(u / gamma, 1.0);
+      EXPECT_LT((e.friction.force + expected * Vector3d::UnitX()).norm(), 1e-12 * expected)
+          << "u = " << u << ", f_n = " << f_n;
+      EXPECT_NEAR(e.friction.stiffness, mu * f_n / gamma, 1e-12 * mu * f_n / gamma);
+      EXPECT_NEAR(e.friction.slip_increment, std::max(u - gamma, 0.0), 1e-12 * u);
+    }
+    EXPECT_EQ(stuck, 9);
+    EXPECT_EQ(slipping, 20);
+  }
 }
 
 /// Test 2, mu_s > mu_k: dragging A by steps with the history committed after each, a stuck

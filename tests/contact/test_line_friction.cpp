@@ -167,6 +167,16 @@ TEST(LineFriction, StraightYarnsSideBySideStickThenSlipAtMuTimesTheLineLoad) {
   }
   EXPECT_NEAR((on_a - slip.on_a).norm(), 0.0, 1e-12 * mu * normal);
   EXPECT_NEAR((on_a + on_b).norm(), 0.0, 1e-12 * mu * normal);
+  // With an elastic slip of 1 um the stick force is mu N slide / gamma (the stiffness mu N /
+  // gamma), the slip force mu N again.
+  const double gamma = 1e-6;
+  const CoulombFriction elastic(mu, mu, 0.0, 0.0, gamma);
+  const Total elastic_stick = total(c, opt, elastic, offset_histories(c, opt, stick_offset, true));
+  EXPECT_EQ(elastic_stick.slipping, 0);
+  EXPECT_NEAR(elastic_stick.on_a.x(), mu * normal * slide / gamma, 1e-9 * mu * normal);
+  const Total elastic_slip = total(c, opt, elastic, offset_histories(c, opt, 1e-3, true));
+  EXPECT_EQ(elastic_slip.slipping, elastic_slip.points);
+  EXPECT_NEAR(elastic_slip.on_a.x(), mu * normal, 1e-9 * mu * normal);
 }
 
 /// Relative error of the tangent against central differences of the residual, histories fixed.
@@ -187,29 +197,35 @@ double tangent_error(const Curves& c, const AllAngleOptions& opt, const CoulombF
 
 TEST(LineFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
   const AllAngleOptions opt = options();
-  const CoulombFriction friction(0.4, 0.3, kEpsT);
+  // A constant tangential penalty, and an elastic slip of 6 um (the stiffness mu N / gamma, a
+  // function of the positions through N).
+  const CoulombFriction penalty(0.4, 0.3, kEpsT);
+  const CoulombFriction elastic(0.4, 0.3, 0.0, 0.0, 6e-6);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   double worst = 0;
   // Parallel, nearly parallel, line only, and into the blend (10 to 20 degrees); contact points
   // anywhere on B (shift), anchors up to 0.6 segment away (in the neighbouring segment).
-  for (const double angle : {0.0, 2e-3, 0.05, 0.15, 0.22, 0.3})
-    for (const bool slipping : {false, true})
-      for (int trial = 0; trial < 2; ++trial) {
-        const double shift = (u(rng) - 0.5) * kH;
-        const Curves c = make_curves(angle, 2 * kRadius - 1e-5, shift, 0.02 * kRadius, rng);
-        // Stick: 1e-5 segments (1.1e-8 m, inside the cone of about 6e-6 m); slip: 0.6 segment.
-        const double offset = (slipping ? 0.6 : 1e-5) * (u(rng) < 0.5 ? -1 : 1);
-        const Histories h = offset_histories(c, opt, offset, trial == 0);
-        Total t;
-        const double e = tangent_error(c, opt, friction, h, t);
-        std::printf("angle %.3f, %s: %d points (%d slipping), tangent %.1e\n", angle,
-                    slipping ? "slip" : "stick", t.points, t.slipping, e);
-        ASSERT_GT(t.points, 0) << angle;
-        EXPECT_EQ(t.slipping, slipping ? t.points : 0) << angle;
-        EXPECT_LT(e, 1e-6) << angle << (slipping ? " slip" : " stick");
-        worst = std::max(worst, e);
-      }
+  for (const CoulombFriction* law : {&penalty, &elastic})
+    for (const double angle : {0.0, 2e-3, 0.05, 0.15, 0.22, 0.3})
+      for (const bool slipping : {false, true})
+        for (int trial = 0; trial < 2; ++trial) {
+          const CoulombFriction& friction = *law;
+          const double shift = (u(rng) - 0.5) * kH;
+          const Curves c = make_curves(angle, 2 * kRadius - 1e-5, shift, 0.02 * kRadius, rng);
+          // Stick: 1e-5 segments (1.1e-8 m, inside the cone of about 6e-6 m); slip: 0.6 segment.
+          const double offset = (slipping ? 0.6 : 1e-5) * (u(rng) < 0.5 ? -1 : 1);
+          const Histories h = offset_histories(c, opt, offset, trial == 0);
+          Total t;
+          const double e = tangent_error(c, opt, friction, h, t);
+          std::printf("%s, angle %.3f, %s: %d points (%d slipping), tangent %.1e\n",
+                      law == &elastic ? "elastic slip" : "penalty", angle,
+                      slipping ? "slip" : "stick", t.points, t.slipping, e);
+          ASSERT_GT(t.points, 0) << angle;
+          EXPECT_EQ(t.slipping, slipping ? t.points : 0) << angle;
+          EXPECT_LT(e, 1e-6) << angle << (slipping ? " slip" : " stick");
+          worst = std::max(worst, e);
+        }
   std::printf("worst: %.1e\n", worst);
 }
 

@@ -395,8 +395,10 @@ Anchored anchored(std::mt19937& rng, const Pair& p, const InterfaceLaw& law, boo
 
 /// The friction tangent in stick and slip, mu_s = mu_k and mu_s > mu_k, stuck and slipping
 /// histories, anchors in the contact's element and in the neighbouring one, elliptical and
-/// super-elliptical sections, and contacts inside the end window at A's node B (share < 1).
-void check_tangent(const char* name, std::mt19937& rng, bool near_end) {
+/// super-elliptical sections, and contacts inside the end window at A's node B (share < 1);
+/// with `elastic`, the stick stiffness set by an elastic slip (mu f_n / gamma) instead of a
+/// constant penalty, at the same trial ratio.
+void check_tangent(const char* name, std::mt19937& rng, bool near_end, bool elastic = false) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const LinearPenalty law(kEps);
   double worst[2] = {0.0, 0.0}; // stick, slip
@@ -423,11 +425,14 @@ void check_tangent(const char* name, std::mt19937& rng, bool near_end) {
     const double mu = stuck ? mu_s : mu_k;
     const bool neighbour = tested % 3 == 1;
     const Anchored a = anchored(rng, p, law, neighbour, stuck, mu, slip ? 2.0 : 0.5);
-    const CoulombFriction friction(mu_s, mu_k, a.eps_t);
+    // The same trial ratio by an elastic slip: w eps_t = mu f_n / gamma.
+    const double gamma = elastic ? mu * c.force / (c.share * a.eps_t) : 0.0;
+    const CoulombFriction friction(mu_s, mu_k, elastic ? 0.0 : a.eps_t, 0.0, gamma);
     const Evaluation e = evaluate(p, law, friction, a.history);
     ASSERT_TRUE(e.friction.active);
     EXPECT_EQ(e.friction.slipping, slip);
     EXPECT_EQ(e.friction.mu, mu);
+    EXPECT_NEAR(e.friction.stiffness, c.share * a.eps_t, 1e-12 * c.share * a.eps_t);
     const double error = friction_tangent_error(p, law, friction, a.history);
     EXPECT_LT(error, 1e-6) << name << " configuration " << tested << " slip " << slip << " share "
                            << c.share;
@@ -449,6 +454,12 @@ TEST(SurfaceFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
 TEST(SurfaceFriction, TangentMatchesCentralDifferencesInsideTheEndWindow) {
   std::mt19937 rng(12);
   check_tangent("end window", rng, true);
+}
+
+TEST(SurfaceFriction, TangentWithAnElasticSlipMatchesCentralDifferences) {
+  std::mt19937 rng(13);
+  check_tangent("crossing, elastic slip", rng, false, true);
+  check_tangent("end window, elastic slip", rng, true, true);
 }
 
 /// The tangent at penetrations from 1e-10 m to 0.2 mm. The friction force depends on the contact

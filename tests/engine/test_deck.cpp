@@ -914,7 +914,7 @@ TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
   };
   expect_one_error("friction = 0.2\n",
                    "contacts[0]: missing required key 'tangential_penalty' (a number > 0 (N/m), "
-                   "with friction on a power law");
+                   "or an elastic_slip (m), with friction on a power law");
   expect_one_error("friction = 0.2\nstatic_friction = 0.3\n",
                    "contacts[0].static_friction: give either 'friction' (one coefficient) or "
                    "'static_friction' and 'kinetic_friction', not both");
@@ -927,6 +927,21 @@ TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
                    "contacts[0].tangential_penalty: 'tangential_penalty' applies only with "
                    "friction");
   expect_one_error("friction = -0.1\n", "contacts[0].friction: expected a number >= 0, found -0.1");
+  // An elastic slip in place of the tangential penalty (also on a power law).
+  f = friction_of(replace(kSplines, "margin = 0.001\n",
+                          "margin = 0.001\nfriction = 0.2\nelastic_slip = 1e-5\n"));
+  EXPECT_DOUBLE_EQ(f.elastic_slip, 1e-5);
+  EXPECT_EQ(f.tangential_penalty, 0.0);
+  expect_one_error("friction = 0.2\nelastic_slip = 1e-5\ntangential_penalty = 1e5\n",
+                   "contacts[0].tangential_penalty: give either 'tangential_penalty' (a constant "
+                   "stick stiffness) or 'elastic_slip'");
+  expect_one_error("elastic_slip = 1e-5\n",
+                   "contacts[0].elastic_slip: 'elastic_slip' applies only with friction");
+  expect_one_error("friction = 0.2\nelastic_slip = 0\n",
+                   "contacts[0].elastic_slip: expected a number > 0, found 0");
+  expect_one_error("friction = 0.2\nelastic_slip = 1e-5\ntorsional_friction = true\n",
+                   "contacts[0].elastic_slip: 'elastic_slip' is not available with "
+                   "torsional_friction = true");
   // Torsional friction: off by default; its radius and penalty default to 0 (derived per pair).
   EXPECT_FALSE(f.torsional);
   f = friction_of(replace(kSplines, "margin = 0.001\n",
@@ -961,6 +976,14 @@ TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
                         "type = \"static\"", "type = \"explicit\""));
   EXPECT_FALSE(has(errors, "contacts[0]")) << joined(errors);
   EXPECT_TRUE(has(errors, "because steps[0] is dynamic")) << joined(errors); // this deck's masses
+  // Not the elastic slip, whose stick stiffness the stable step cannot bound before the run.
+  const auto elastic =
+      errors_of(replace(replace(kSplines, "margin = 0.001\n",
+                                "margin = 0.001\nfriction = 0.2\nelastic_slip = 1e-5\n"),
+                        "type = \"static\"", "type = \"explicit\""));
+  EXPECT_TRUE(has(elastic, "contacts[0].elastic_slip: 'elastic_slip' is not available on the "
+                           "explicit path"))
+      << joined(elastic);
 }
 
 TEST(DeckSplines, AllAngleContactKeysDefaultAndAreChecked) {

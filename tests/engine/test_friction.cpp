@@ -35,7 +35,8 @@ struct Drag {
   std::vector<int> slider;
 };
 
-Drag drag_model(double mu_s, double mu_k, const TimeTable& drag, double t_end, double dt) {
+Drag drag_model(double mu_s, double mu_k, const TimeTable& drag, double t_end, double dt,
+                double elastic_slip = 0) {
   const double E = 1e9, A = std::numbers::pi * kRadius * kRadius;
   const double I = std::numbers::pi * std::pow(kRadius, 4) / 4;
   const Section s = test::stiffness_section(E * A, E * A, E * I, E * I);
@@ -68,6 +69,10 @@ Drag drag_model(double mu_s, double mu_k, const TimeTable& drag, double t_end, d
   c.group_b = {1};
   c.law = {1e5, 1.0, 0.0};
   c.friction = {mu_s, mu_k, kEpsT};
+  if (elastic_slip > 0) {
+    c.friction.tangential_penalty = 0;
+    c.friction.elastic_slip = elastic_slip;
+  }
   m.spline_contacts.push_back(c);
   SolutionStep press = test::static_step(1.0, 0.25, 1e-10);
   SolutionStep pull = test::static_step(t_end, dt, 1e-10);
@@ -82,8 +87,8 @@ Drag drag_model(double mu_s, double mu_k, const TimeTable& drag, double t_end, d
 using Sample = test::DragSample;
 
 std::vector<Sample> run_drag(double mu_s, double mu_k, const TimeTable& table, double t_end,
-                             double dt) {
-  const Drag d = drag_model(mu_s, mu_k, table, t_end, dt);
+                             double dt, double elastic_slip = 0) {
+  const Drag d = drag_model(mu_s, mu_k, table, t_end, dt, elastic_slip);
   Simulation sim(d.model);
   test::DragRecorder rec(d.slider, table);
   sim.run(&rec);
@@ -147,13 +152,13 @@ TEST(Friction, StickBelowTheConeThenSlipWithAStaticPeak) {
   EXPECT_TRUE(peaked);
 }
 
-TEST(Friction, HysteresisLoopAreaDissipationAndEnergyBalanceAreExact) {
-  // u: 0 -> u_a -> -u_a -> u_a. mu N / eps_t = 0.25 mm falls on the increments (0.05 mm), so
-  // the trapezoidal integral of the piecewise linear f(u) is exact.
-  const double mu = 0.5, ua = 1e-3, t_end = 6.0;
-  const double cone = mu * kNormal / kEpsT;
+/// The loop of a drag u: 0 -> u_a -> -u_a -> u_a whose cone's radius in displacement is `cone`
+/// (m): its area, the dissipation and the balance of the drag's work, against the exact answers;
+/// `elastic_slip` > 0 sets the stick stiffness mu N / elastic_slip (then `cone` = elastic_slip).
+void check_hysteresis(double mu, double cone, double elastic_slip) {
+  const double ua = 1e-3, t_end = 6.0;
   const TimeTable drag{{0.0, 1.0, 2.0, 4.0, 6.0}, {0.0, 0.0, ua, -ua, ua}};
-  const std::vector<Sample> samples = run_drag(mu, mu, drag, t_end, 0.05);
+  const std::vector<Sample> samples = run_drag(mu, mu, drag, t_end, 0.05, elastic_slip);
   // Work of the drag, W = integral f du, over the first pull (t 1 to 2) and over the closed
   // cycle (t 2 to 6).
   double first = 0, loop = 0;
@@ -177,11 +182,24 @@ TEST(Friction, HysteresisLoopAreaDissipationAndEnergyBalanceAreExact) {
   const double slide = ua - cone;
   EXPECT_NEAR(end_of_pull->contact.dissipation, mu * kNormal * slide, 1e-9 * mu * kNormal * slide);
   const double stored = end_of_pull->contact.potential - pressed->contact.potential;
-  EXPECT_NEAR(stored, std::pow(mu * kNormal, 2) / (2 * kEpsT), 1e-6 * stored);
+  // The spring holds mu N at the cone's radius: (mu N)^2 / (2 k) = mu N cone / 2.
+  EXPECT_NEAR(stored, mu * kNormal * cone / 2, 1e-6 * stored);
   EXPECT_NEAR(first, stored + end_of_pull->contact.dissipation, 1e-9 * first);
   // The whole cycle dissipates the loop's area on top of the first slide.
   EXPECT_NEAR(samples.back().contact.dissipation - end_of_pull->contact.dissipation, loop,
               1e-9 * loop);
+}
+
+TEST(Friction, HysteresisLoopAreaDissipationAndEnergyBalanceAreExact) {
+  // mu N / eps_t = 0.25 mm falls on the increments (0.05 mm), so the trapezoidal integral of the
+  // piecewise linear f(u) is exact.
+  const double mu = 0.5;
+  check_hysteresis(mu, mu * kNormal / kEpsT, 0.0);
+}
+
+TEST(Friction, WithAnElasticSlipTheLoopIsThatOfItsRadius) {
+  // The stick stiffness mu N / gamma: a cone of radius gamma = 0.15 mm (on the increments).
+  check_hysteresis(0.5, 0.15e-3, 0.15e-3);
 }
 
 TEST(Friction, NewtonConvergesQuadraticallyInSlip) {

@@ -171,6 +171,24 @@ TEST(FabricDeck, ContactFrictionReachesTheWarpWeftContact) {
                        "explicit path"),
             std::string::npos)
       << xd[0];
+  // An elastic slip reaches every definition (the same direction's too) in place of the
+  // penalty; not on the explicit path.
+  const Model es = read_deck_string(std::string(kValid) + "[contact]\nfriction = 0.2\n"
+                                                          "elastic_slip = 1e-5\n"
+                                                          "same_direction = true\n",
+                                    "fabric.toml");
+  ASSERT_EQ(es.spline_contacts.size(), 3u);
+  for (const SplineContactDefinition& c : es.spline_contacts) {
+    EXPECT_DOUBLE_EQ(c.friction.elastic_slip, 1e-5) << c.name;
+    EXPECT_EQ(c.friction.tangential_penalty, 0.0) << c.name;
+  }
+  const auto xe = errors_of(with("type = \"static\"", "type = \"explicit\"") +
+                            "[contact]\nfriction = 0.2\nelastic_slip = 1e-5\n");
+  ASSERT_EQ(xe.size(), 1u) << joined(xe);
+  EXPECT_NE(xe[0].find("contact.elastic_slip: 'elastic_slip' is not available on the explicit "
+                       "path"),
+            std::string::npos)
+      << xe[0];
 }
 
 TEST(FabricDeck, SameDirectionContactAddsWarpWarpAndWeftWeft) {
