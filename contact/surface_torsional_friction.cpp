@@ -273,7 +273,12 @@ void evaluate_law(const JetT<H, 24>& theta, const SurfaceContactResult& contact,
                   const SurfaceFrictionHistory& history, const TorsionalFriction& law,
                   SurfaceTorsionalFrictionResult& out) {
   const double w = contact.share;
-  const double k = w * law.k_r(); // the pair's penalty, N m/rad
+  // The pair's penalty, N m/rad: w k_r, or with an elastic slip mu f_n rho^2 / gamma (f_n = w f,
+  // the share included through the force).
+  const bool elastic = law.elastic_slip() > 0.0;
+  const double k = elastic
+                       ? law.stiffness(history.twist_stuck ? law.mu_s() : law.mu_k(), contact.force)
+                       : w * law.k_r();
   // f_n = w f, contact.force: the pair's share of the normal force.
   const TwistReturn r =
       twist_return(theta.v, history.twist, history.twist_stuck, k, contact.force, law);
@@ -285,6 +290,10 @@ void evaluate_law(const JetT<H, 24>& theta, const SurfaceContactResult& contact,
     if (out.slipping) {
       out.tangent.noalias() +=
           theta.g * (mu * law.rho() * std::copysign(1.0, twist) * sensitivity->force.transpose());
+    } else if (elastic) {
+      out.tangent.noalias() += k * theta.g * theta.g.transpose();
+      out.tangent.noalias() +=
+          theta.g * ((law.stiffness_rate(mu) * twist) * sensitivity->force.transpose());
     } else {
       out.tangent.noalias() += k * theta.g * theta.g.transpose();
       out.tangent.noalias() += theta.g * ((law.k_r() * twist) * sensitivity->share.transpose());

@@ -49,14 +49,14 @@ TwistReturn twist_return(double theta, double anchor, bool stuck, double k, doub
   r.slipping = slips(r.slip_function, r.limit, stuck);
   r.anchor = anchor;
   double m = k * r.twist;
-  if (r.slipping) {
+  if (r.slipping) { // k > 0 here: k |dtheta| > limit >= 0
     m = std::copysign(r.limit, r.twist);
     r.anchor = std::remainder(theta - m / k, 2.0 * std::numbers::pi);
     r.slip_increment = std::max(std::abs(r.twist) - r.limit / k, 0.0);
     r.dissipation = r.limit * r.slip_increment;
   }
   r.torque = m;
-  r.energy = m * m / (2.0 * k);
+  r.energy = k > 0.0 ? m * m / (2.0 * k) : 0.0;
   return r;
 }
 
@@ -67,7 +67,7 @@ template <int H>
 void evaluate(const JetT<H>& theta, double f_n, const SplineContactSensitivity* sensitivity,
               const FrictionHistory& history, const TorsionalFriction& law,
               TorsionalFrictionResult& out) {
-  const double k_r = law.k_r();
+  const double k_r = law.stiffness(history.twist_stuck ? law.mu_s() : law.mu_k(), f_n);
   const TwistReturn r = twist_return(theta.v, history.twist, history.twist_stuck, k_r, f_n, law);
   const double mu = r.mu, twist = r.twist, m = r.torque;
   set_twist_result(r, theta.v, out);
@@ -77,6 +77,10 @@ void evaluate(const JetT<H>& theta, double f_n, const SplineContactSensitivity* 
     if (out.slipping)
       out.tangent.noalias() +=
           theta.g * (mu * law.rho() * std::copysign(1.0, twist) * sensitivity->force.transpose());
+    else if (const double rate = law.stiffness_rate(mu); rate > 0.0)
+      // m = k_r(f_n) dtheta: dm/dx = k_r dtheta/dx + (mu rho^2 / gamma) dtheta df_n/dx.
+      out.tangent.noalias() +=
+          theta.g * (k_r * theta.g + (rate * twist) * sensitivity->force).transpose();
     else
       out.tangent.noalias() += k_r * theta.g * theta.g.transpose();
   }
@@ -84,23 +88,30 @@ void evaluate(const JetT<H>& theta, double f_n, const SplineContactSensitivity* 
 
 } // namespace
 
-TorsionalFriction::TorsionalFriction(double mu_s, double mu_k, double k_r, double rho)
-    : mu_s_(mu_s), mu_k_(mu_k), k_r_(k_r), rho_(rho) {
+TorsionalFriction::TorsionalFriction(double mu_s, double mu_k, double k_r, double rho,
+                                     double elastic_slip)
+    : mu_s_(mu_s), mu_k_(mu_k), k_r_(k_r), rho_(rho), elastic_slip_(elastic_slip) {
   if (!(std::isfinite(mu_k) && mu_k >= 0.0 && std::isfinite(mu_s) && mu_s >= mu_k &&
-        std::isfinite(k_r) && k_r > 0.0 && std::isfinite(rho) && rho > 0.0)) {
+        std::isfinite(k_r) && k_r >= 0.0 && std::isfinite(rho) && rho > 0.0 &&
+        std::isfinite(elastic_slip) && elastic_slip >= 0.0 && (k_r > 0.0 || elastic_slip > 0.0))) {
     std::ostringstream msg;
-    msg << "TorsionalFriction: expected 0 <= mu_k <= mu_s, k_r > 0 and rho > 0, all finite; "
-        << "found mu_s = " << mu_s << ", mu_k = " << mu_k << ", k_r = " << k_r
-        << " N m/rad, rho = " << rho << " m";
+    msg << "TorsionalFriction: expected 0 <= mu_k <= mu_s, rho > 0, and k_r > 0 or "
+        << "elastic_slip > 0 (the other >= 0), all finite; found mu_s = " << mu_s
+        << ", mu_k = " << mu_k << ", k_r = " << k_r << " N m/rad, rho = " << rho
+        << " m, elastic_slip = " << elastic_slip << " m";
     throw std::invalid_argument(msg.str());
   }
 }
 
 TorsionalFriction torsional_law(double mu_s, double mu_k, double eps_t, double radius,
-                                double penalty, double width_A, double width_B) {
+                                double penalty, double width_A, double width_B,
+                                double elastic_slip) {
   const double rho = radius > 0 ? radius : footprint_radius(width_A, width_B);
-  const double k_r = penalty > 0 ? penalty : eps_t * rho * rho;
-  return {mu_s, mu_k, k_r, rho};
+  if (penalty > 0)
+    return {mu_s, mu_k, penalty, rho};
+  if (elastic_slip > 0)
+    return {mu_s, mu_k, 0.0, rho, elastic_slip};
+  return {mu_s, mu_k, eps_t * rho * rho, rho};
 }
 
 double footprint_radius(double width_A, double width_B) {

@@ -34,7 +34,8 @@
 // Defaults (documented in docs/input.md): rho, the mean distance from its centre of the
 // footprint of the crossing, taken as a rectangle of the two yarns' widths; k_r = eps_t rho^2
 // (eps_t the tangential penalty, N/m), so that a twist stiffens like a ring of the pointwise
-// law's springs at radius rho and slips at the twist where such a ring slips.
+// law's springs at radius rho and slips at the twist where such a ring slips; with an elastic
+// slip gamma, k_r = mu f_n rho^2 / gamma for the same reason (TorsionalFriction).
 //
 // In the all-angle contact's blend (line_contact.hpp) the torque is the point part's share s of
 // the above (bound, spring and dissipation; the tangent gains r (ds/dx)^T), f_n the point part's
@@ -53,23 +54,41 @@
 namespace yarnsim::contact {
 
 /// Coefficients of the torsional law.
+///
+/// With an elastic slip gamma (friction.hpp, CoulombFriction) the torsional stiffness follows
+/// the normal force as the pointwise one does: k_r(f_n) = mu f_n rho^2 / gamma, the stiffness of
+/// a ring of the pointwise law's springs at radius rho, so that the twist slips at gamma / rho
+/// whatever the normal force; in stick dm/dx gains (mu rho^2 / gamma) dtheta df_n/dx.
 class TorsionalFriction {
 public:
   /// mu_s, mu_k: static and kinetic coefficients (dimensionless, those of the pointwise law);
-  /// k_r: torsional penalty, N m/rad; rho: effective contact radius, m. Throws
-  /// std::invalid_argument unless 0 <= mu_k <= mu_s, k_r > 0 and rho > 0, all finite.
-  TorsionalFriction(double mu_s, double mu_k, double k_r, double rho);
+  /// k_r: torsional penalty, N m/rad (unused with an elastic slip); rho: effective contact
+  /// radius, m; elastic_slip: gamma, m, 0 for the constant penalty. Throws
+  /// std::invalid_argument unless 0 <= mu_k <= mu_s, rho > 0, and k_r > 0 or elastic_slip > 0
+  /// with the other >= 0, all finite.
+  TorsionalFriction(double mu_s, double mu_k, double k_r, double rho, double elastic_slip = 0.0);
 
   double mu_s() const { return mu_s_; }
   double mu_k() const { return mu_k_; }
   double k_r() const { return k_r_; }
   double rho() const { return rho_; }
+  double elastic_slip() const { return elastic_slip_; }
+  /// The torsional stiffness at coefficient mu and normal force f_n (N), N m/rad: k_r, or
+  /// mu f_n rho^2 / gamma.
+  double stiffness(double mu, double f_n) const {
+    return elastic_slip_ > 0.0 ? stiffness_rate(mu) * f_n : k_r_;
+  }
+  /// d stiffness / d f_n, m/rad: 0, or mu rho^2 / gamma.
+  double stiffness_rate(double mu) const {
+    return elastic_slip_ > 0.0 ? mu * rho_ * rho_ / elastic_slip_ : 0.0;
+  }
 
 private:
   double mu_s_;
   double mu_k_;
   double k_r_;
   double rho_;
+  double elastic_slip_;
 };
 
 /// Mean distance from the centre of a rectangle of sides `width_A` and `width_B` (metres): the
@@ -79,10 +98,12 @@ double footprint_radius(double width_A, double width_B);
 
 /// The torsional law of a crossing of yarns of widths `width_A`, `width_B` (m) from a contact's
 /// settings: rho = `radius` (m), or footprint_radius(width_A, width_B) where it is 0; k_r =
-/// `penalty` (N m/rad), or eps_t rho^2 (eps_t the tangential penalty, N/m) where it is 0. The
-/// defaults of docs/input.md, for both contact formulations and the explicit stable step.
+/// `penalty` (N m/rad), or where it is 0 eps_t rho^2 (eps_t the tangential penalty, N/m) or,
+/// with an `elastic_slip` gamma > 0 (m), mu f_n rho^2 / gamma. The defaults of docs/input.md, for
+/// both contact formulations and the explicit stable step.
 TorsionalFriction torsional_law(double mu_s, double mu_k, double eps_t, double radius,
-                                double penalty, double width_A, double width_B);
+                                double penalty, double width_A, double width_B,
+                                double elastic_slip = 0.0);
 
 /// Crossing angle theta (see the file's comment) of the point contact `contact` (regular and
 /// active, on the segments `basis_A`, `basis_B` with control points `control_A`, `control_B`),
@@ -107,8 +128,8 @@ struct TwistReturn {
 };
 
 /// The return mapping of the crossing angle `theta` (rad) against the committed anchor
-/// `anchor` (rad) and stick flag `stuck`: penalty k (N m/rad), normal force f_n (N), the
-/// coefficients and rho of `law`.
+/// `anchor` (rad) and stick flag `stuck`: penalty k (N m/rad, >= 0; 0 with no normal force under
+/// an elastic slip), normal force f_n (N), the coefficients and rho of `law`.
 TwistReturn twist_return(double theta, double anchor, bool stuck, double k, double f_n,
                          const TorsionalFriction& law);
 

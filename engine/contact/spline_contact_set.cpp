@@ -42,7 +42,8 @@ struct SplineContactSet::Definition {
   /// The torsional law of a pair of splines of widths wa, wb (m): FrictionParameters' defaults.
   contact::TorsionalFriction torsion(double wa, double wb) const {
     return contact::torsional_law(friction->mu_s(), friction->mu_k(), friction->eps_t(),
-                                  torsional_radius, torsional_penalty, wa, wb);
+                                  torsional_radius, torsional_penalty, wa, wb,
+                                  friction->elastic_slip());
   }
 };
 

@@ -38,7 +38,8 @@ struct SurfaceContactSet::Definition {
   /// FrictionParameters' defaults, as SplineContactSet's.
   contact::TorsionalFriction torsion(double wa, double wb) const {
     return contact::torsional_law(friction->mu_s(), friction->mu_k(), friction->eps_t(),
-                                  torsional_radius, torsional_penalty, wa, wb);
+                                  torsional_radius, torsional_penalty, wa, wb,
+                                  friction->elastic_slip());
   }
 };
 

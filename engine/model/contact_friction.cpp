@@ -51,10 +51,6 @@ void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParame
       t.error("tangential_penalty", "give either 'tangential_penalty' (a constant stick "
                                     "stiffness) or 'elastic_slip' (the stiffness mu f_n / "
                                     "elastic_slip), not both");
-    if (friction.torsional)
-      t.error("elastic_slip", "'elastic_slip' is not available with torsional_friction = true in "
-                              "this version (the torsional spring needs a constant stiffness): "
-                              "give tangential_penalty instead");
   } else if (t.present("tangential_penalty"))
     friction.tangential_penalty = t.number("tangential_penalty").value_or(0);
   else if (law.exponent == 1.0)

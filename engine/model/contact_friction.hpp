@@ -16,8 +16,8 @@ namespace yarnsim {
 /// reporting their problems on `t`: both forms given, only one of static and kinetic, kinetic
 /// above static, a tangential penalty, elastic slip or torsional key without friction, a
 /// torsional radius or penalty without torsional_friction = true, both a tangential penalty and
-/// an elastic slip, an elastic slip with torsional friction (not available), a tangential penalty
-/// missing with a power law (whose penalty is not in N/m). `law` is the table's normal law.
+/// an elastic slip, a tangential penalty missing with a power law (whose penalty is not in N/m).
+/// `law` is the table's normal law.
 void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParameters& law,
                            FrictionParameters& friction);
 

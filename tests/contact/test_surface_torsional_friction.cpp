@@ -285,43 +285,49 @@ TEST(SurfaceTorsionalFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
   double worst[2] = {0.0, 0.0}; // stick, slip
   int windowed = 0;
   int tested = 0;
-  for (const Case& c : kCases) {
-    for (const bool slip : {false, true}) {
-      Pair p;
-      int attempts = 0;
-      while (!build(rng, c, p) && ++attempts < 50) {
+  // A constant penalty, then an elastic slip at the same trial ratio (the pair's stiffness
+  // mu f_n rho^2 / gamma = w k_r: gamma = mu f_n rho^2 / (w k_r)).
+  for (const bool elastic : {false, true})
+    for (const Case& c : kCases) {
+      for (const bool slip : {false, true}) {
+        Pair p;
+        int attempts = 0;
+        while (!build(rng, c, p) && ++attempts < 50) {
+        }
+        ASSERT_LT(attempts, 50);
+        const SurfaceContactResult c0 = solve(p, law);
+        windowed += c0.share < 1.0 ? 1 : 0;
+        const bool stuck = tested % 3 != 0;
+        const double mu_s = 0.3;
+        const double mu_k = tested % 2 == 0 ? 0.3 : 0.2;
+        const double mu = stuck ? mu_s : mu_k;
+        const double gamma = mu * c0.force * kRho * kRho / (c0.share * k_r);
+        const TorsionalFriction friction = elastic ? TorsionalFriction(mu_s, mu_k, 0.0, kRho, gamma)
+                                                   : TorsionalFriction(mu_s, mu_k, k_r, kRho);
+        const SurfaceFrictionHistory h =
+            twisted(p, c0, k_r, mu, slip ? 2.0 : 0.5, tested % 2 ? 1.0 : -1.0, stuck);
+        const Evaluation e = evaluate(p, law, friction, h);
+        ASSERT_TRUE(e.twist.active);
+        EXPECT_EQ(e.twist.slipping, slip);
+        EXPECT_EQ(e.twist.mu, mu);
+        const SurfaceProjectionStart warm = warm_start(e.contact);
+        Mat24 fd;
+        for (int i = 0; i < 24; ++i) {
+          fd.col(i) = richardson(p, i, 1e-6 * dof_scale(i), [&](const Pair& q) {
+            const Evaluation eq = evaluate(q, law, friction, h, warm);
+            EXPECT_EQ(eq.contact.status, ProjectionStatus::Converged);
+            EXPECT_EQ(eq.twist.slipping, slip);
+            return Vec24(eq.twist.residual);
+          });
+        }
+        const double error = scaled_error(fd, e.twist.tangent, true);
+        EXPECT_LT(error, 1e-6) << "case " << c.degrees << " deg, m " << c.m << ", shift " << c.shift
+                               << ", slip " << slip << ", share " << c0.share
+                               << (elastic ? ", elastic slip" : "");
+        worst[slip ? 1 : 0] = std::max(worst[slip ? 1 : 0], error);
+        ++tested;
       }
-      ASSERT_LT(attempts, 50);
-      const SurfaceContactResult c0 = solve(p, law);
-      windowed += c0.share < 1.0 ? 1 : 0;
-      const bool stuck = tested % 3 != 0;
-      const double mu_s = 0.3;
-      const double mu_k = tested % 2 == 0 ? 0.3 : 0.2;
-      const double mu = stuck ? mu_s : mu_k;
-      const TorsionalFriction friction(mu_s, mu_k, k_r, kRho);
-      const SurfaceFrictionHistory h =
-          twisted(p, c0, k_r, mu, slip ? 2.0 : 0.5, tested % 2 ? 1.0 : -1.0, stuck);
-      const Evaluation e = evaluate(p, law, friction, h);
-      ASSERT_TRUE(e.twist.active);
-      EXPECT_EQ(e.twist.slipping, slip);
-      EXPECT_EQ(e.twist.mu, mu);
-      const SurfaceProjectionStart warm = warm_start(e.contact);
-      Mat24 fd;
-      for (int i = 0; i < 24; ++i) {
-        fd.col(i) = richardson(p, i, 1e-6 * dof_scale(i), [&](const Pair& q) {
-          const Evaluation eq = evaluate(q, law, friction, h, warm);
-          EXPECT_EQ(eq.contact.status, ProjectionStatus::Converged);
-          EXPECT_EQ(eq.twist.slipping, slip);
-          return Vec24(eq.twist.residual);
-        });
-      }
-      const double error = scaled_error(fd, e.twist.tangent, true);
-      EXPECT_LT(error, 1e-6) << "case " << c.degrees << " deg, m " << c.m << ", shift " << c.shift
-                             << ", slip " << slip << ", share " << c0.share;
-      worst[slip ? 1 : 0] = std::max(worst[slip ? 1 : 0], error);
-      ++tested;
     }
-  }
   EXPECT_GE(windowed, 2);
   std::printf("surface torsional friction: tangent against central differences, worst %.2e in "
               "stick, %.2e in slip (%d of %d inside an end window)\n",

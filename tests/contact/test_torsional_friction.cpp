@@ -76,6 +76,17 @@ TEST(TorsionalFriction, LawRejectsBadCoefficients) {
   EXPECT_THROW(TorsionalFriction(0.3, 0.2, 1e-2, std::numeric_limits<double>::quiet_NaN()),
                std::invalid_argument);
   EXPECT_THROW(TorsionalFriction(0.3, 0.2, INFINITY, 1e-4), std::invalid_argument);
+  // An elastic slip in place of the penalty.
+  EXPECT_NO_THROW(TorsionalFriction(0.3, 0.2, 0.0, 1e-4, 1e-5));
+  EXPECT_THROW(TorsionalFriction(0.3, 0.2, 0.0, 1e-4, -1e-5), std::invalid_argument);
+  EXPECT_THROW(TorsionalFriction(0.3, 0.2, -1e-2, 1e-4, 1e-5), std::invalid_argument);
+  const TorsionalFriction elastic(0.3, 0.2, 0.0, 1e-4, 1e-5);
+  EXPECT_DOUBLE_EQ(elastic.stiffness(0.3, 2.0), 0.3 * 2.0 * 1e-8 / 1e-5);
+  EXPECT_EQ(elastic.stiffness(0.3, 0.0), 0.0);
+  // torsional_law: an explicit penalty wins; else the elastic slip; else eps_t rho^2.
+  EXPECT_EQ(torsional_law(0.3, 0.3, 1e5, 1e-4, 0.02, 1e-3, 1e-3, 1e-5).k_r(), 0.02);
+  EXPECT_EQ(torsional_law(0.3, 0.3, 1e5, 1e-4, 0.0, 1e-3, 1e-3, 1e-5).elastic_slip(), 1e-5);
+  EXPECT_DOUBLE_EQ(torsional_law(0.3, 0.3, 1e5, 1e-4, 0.0, 1e-3, 1e-3).k_r(), 1e5 * 1e-8);
 }
 
 TEST(TorsionalFriction, FootprintRadiusIsTheMeanDistanceOverTheRectangle) {
@@ -118,9 +129,13 @@ TEST(TorsionalFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
   const LinearPenalty linear(kEps);
   const PowerLaw power(5e8, 1.5);
   int count[2][2] = {{0, 0}, {0, 0}}; // [slip][at a knot]
+  int elastic_count[2] = {0, 0};      // [slip], with an elastic slip
   double worst[2] = {0.0, 0.0};       // [slip]
   int tested = 0;
-  while (tested < 64) {
+  // The last 32 configurations set the torsional stiffness by an elastic slip (mu f_n rho^2 /
+  // gamma, its dependence on f_n in the stick tangent) instead of a constant penalty.
+  while (tested < 96) {
+    const bool elastic = tested >= 64;
     const int sa = seg(rng);
     const int sb = seg(rng);
     Pair p = random_crossing(rng, sa, sb);
@@ -147,10 +162,14 @@ TEST(TorsionalFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
         spline_contact(p.xa, *p.ba, kRadius, p.xb, *p.bb, kRadius, {}, law);
     ASSERT_TRUE(c.active);
     const FrictionHistory h = twisted(p, c, stuck ? mu_s : mu_k, ratio, sign, stuck);
-    const TorsionalFriction friction(mu_s, mu_k, kKr, kRho);
+    // The same trial ratio by an elastic slip: mu f_n rho^2 / gamma = k_r.
+    const double gamma = (stuck ? mu_s : mu_k) * c.force * kRho * kRho / kKr;
+    const TorsionalFriction friction = elastic ? TorsionalFriction(mu_s, mu_k, 0.0, kRho, gamma)
+                                               : TorsionalFriction(mu_s, mu_k, kKr, kRho);
     const Evaluation e = evaluate(p, law, friction, h);
     ASSERT_TRUE(e.twist.active);
     ASSERT_EQ(e.twist.slipping, slip);
+    elastic_count[slip] += elastic ? 1 : 0;
     EXPECT_EQ(e.twist.mu, stuck ? mu_s : mu_k);
     ++count[slip][knot];
     ++tested;
@@ -166,6 +185,8 @@ TEST(TorsionalFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
   for (const auto& row : count)
     for (const int n : row)
       EXPECT_GE(n, 12);
+  EXPECT_GE(elastic_count[0], 12);
+  EXPECT_GE(elastic_count[1], 12);
   for (const int slip : {0, 1}) {
     std::ostringstream value;
     value << std::scientific << std::setprecision(2) << worst[slip];

@@ -939,9 +939,12 @@ TEST(DeckSplines, FrictionKeysAreReadAndChecked) {
                    "contacts[0].elastic_slip: 'elastic_slip' applies only with friction");
   expect_one_error("friction = 0.2\nelastic_slip = 0\n",
                    "contacts[0].elastic_slip: expected a number > 0, found 0");
-  expect_one_error("friction = 0.2\nelastic_slip = 1e-5\ntorsional_friction = true\n",
-                   "contacts[0].elastic_slip: 'elastic_slip' is not available with "
-                   "torsional_friction = true");
+  const FrictionParameters twist =
+      friction_of(replace(kSplines, "margin = 0.001\n",
+                          "margin = 0.001\nfriction = 0.2\nelastic_slip = 1e-5\n"
+                          "torsional_friction = true\n"));
+  EXPECT_TRUE(twist.torsional);
+  EXPECT_DOUBLE_EQ(twist.elastic_slip, 1e-5);
   // Torsional friction: off by default; its radius and penalty default to 0 (derived per pair).
   EXPECT_FALSE(f.torsional);
   f = friction_of(replace(kSplines, "margin = 0.001\n",
