@@ -44,7 +44,16 @@ std::string torsion_text(const FrictionParameters& f) {
                                             : std::string("from the yarn widths"),
                      f.torsional_penalty > 0
                          ? fmt::format("{:.6g} N mm/rad", 1e3 * f.torsional_penalty)
-                         : std::string("tangential penalty x radius^2"));
+                     : f.elastic_slip > 0 ? std::string("mu f_n radius^2 / elastic slip")
+                                          : std::string("tangential penalty x radius^2"));
+}
+
+/// The stick stiffness of a friction law: the constant tangential penalty, or the elastic slip.
+std::string stick_text(const FrictionParameters& f) {
+  if (f.elastic_slip > 0)
+    return fmt::format("elastic slip {:.6g} mm (the stick stiffness mu f_n / elastic slip)",
+                       1e3 * f.elastic_slip);
+  return fmt::format("tangential penalty {:.6g} N/m", f.tangential_penalty);
 }
 
 } // namespace
@@ -117,13 +126,15 @@ std::string check_report(const Model& model) {
     const FrictionParameters& f = c.friction;
     const std::string friction =
         !f.active() ? std::string(", frictionless")
-        : f.mu_static == f.mu_kinetic
+        : f.mu_static == f.mu_kinetic && f.elastic_slip == 0
             ? fmt::format(", friction mu = {:g}, tangential penalty {:.6g} N/m (the stick "
                           "displacement mu f_n / eps_t is {:.3g} mm per N of normal force)",
                           f.mu_static, f.tangential_penalty,
                           1e3 * f.mu_static / f.tangential_penalty)
-            : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, tangential penalty {:.6g} N/m",
-                          f.mu_static, f.mu_kinetic, f.tangential_penalty);
+        : f.mu_static == f.mu_kinetic
+            ? fmt::format(", friction mu = {:g}, {}", f.mu_static, stick_text(f))
+            : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, {}", f.mu_static, f.mu_kinetic,
+                          stick_text(f));
     const std::string torsion = torsion_text(f);
     // Who touches whom: two groups, or one group within itself (its splines with each other,
     // and each spline with itself unless within_spline is off, as in a fabric's warp-warp).
@@ -138,11 +149,10 @@ std::string check_report(const Model& model) {
   }
   for (const SurfaceContactDefinition& c : model.surface_contacts) {
     const FrictionParameters& f = c.friction;
-    const std::string friction =
-        !f.active()
-            ? std::string(", frictionless")
-            : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, tangential penalty {:.6g} N/m",
-                          f.mu_static, f.mu_kinetic, f.tangential_penalty);
+    const std::string friction = !f.active()
+                                     ? std::string(", frictionless")
+                                     : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, {}",
+                                                   f.mu_static, f.mu_kinetic, stick_text(f));
     out += fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm{}{}\n",
                        c.name, c.group_a.size(), c.group_b.size(), law_text(c.law), 1e3 * c.margin,
                        friction, torsion_text(f));
@@ -181,7 +191,19 @@ std::string check_report(const Model& model) {
     }
     start = s.end_time;
   }
-  if (!any_explicit) {
+  // A contact with an elastic slip has no stable step (explicit decks refuse the key).
+  std::string elastic;
+  for (const SplineContactDefinition& c : model.spline_contacts)
+    if (elastic.empty() && c.friction.active() && c.friction.elastic_slip > 0)
+      elastic = c.name;
+  for (const SurfaceContactDefinition& c : model.surface_contacts)
+    if (elastic.empty() && c.friction.active() && c.friction.elastic_slip > 0)
+      elastic = c.name;
+  if (!any_explicit && !elastic.empty()) {
+    out += fmt::format("explicit path (no step uses it): not available with the elastic slip of "
+                       "contact '{}' (its stable step needs a constant stick stiffness)\n",
+                       elastic);
+  } else if (!any_explicit) {
     SolutionStep plain;
     plain.type = StepType::Explicit;
     const ExplicitStatus e = sim.explicit_stability(plain);

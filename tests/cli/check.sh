@@ -40,6 +40,10 @@ sed 's/^friction = 0.2 .*/friction = 0.2\ntorsional_friction = true/' \
 check surface-torsion surface-torsion.toml \
   "^  surface contact 'warp-weft': .*, friction mu_s = 0.2, mu_k = 0.2, tangential penalty 350000 N/m, torsional friction at the crossings (radius from the yarn widths, penalty tangential penalty x radius^2)$"
 rm -f surface-torsion.toml
+# With an elastic slip: said in place of the tangential penalty, on every spline contact.
+check elastic-slip "$repo/examples/bias-extension-twintex-friction.toml" \
+  "^  spline contact 'warp-weft': .*, friction mu = 0.2, elastic slip 0.005 mm (the stick stiffness mu f_n / elastic slip)$" \
+  "^explicit path (no step uses it): not available with the elastic slip of contact 'warp-weft'"
 check rollup "$repo/examples/rollup.toml" "^model: [0-9]* nodes" "^contact definitions: 0" "^  step 1: static"
 grep -q "clearance" rollup.log && { echo "FAIL rollup: a clearance line without contact"; fail=1; }
 ls | grep -qv '\.log$' && { echo "FAIL: check left files behind: $(ls)"; fail=1; }
