@@ -38,7 +38,6 @@ void line_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A
   const GaussRule& rule = gauss_rule(all_angle.gauss_points);
   const double reach = radius_A + radius_B;
   const double lambda = all_angle.line_scale;
-
   for (int i = 0; i < rule.n; ++i) {
     if (!(mask & (1u << i)))
       continue;

@@ -231,26 +231,32 @@ TEST_F(Checkpoint, DynamicFabricThroughTheFileGoesOnBitForBit) {
 TEST_F(Checkpoint, PictureFrameWithFrictionGoesOnBitForBit) {
   // The paper's fabric in the picture frame (examples/picture-frame.toml) with Coulomb and
   // torsional friction (mu = 0.2): the pretension step, then the start of the shear, where the
-  // crossings twist and stick or slip. Restarted through the file from the middle of the shear.
-  Model m = example(
-      "picture-frame.toml",
-      {{"penalty", "1.5e6\nfriction = 0.2\ntorsional_friction = true"}, {"max_angle", "65.0"}});
-  ASSERT_EQ(m.steps.size(), 2u);
-  m.steps.back().end_time = m.picture_frame->shear_start + 0.06;
-  Recorder straight;
-  Simulation(m).run(&straight);
-  std::size_t first_shear = 0;
-  while (straight.increments[first_shear].time <= m.picture_frame->shear_start)
-    ++first_shear;
-  ASSERT_GE(straight.increments.size(), first_shear + 4);
-  const std::size_t k = (first_shear + straight.increments.size()) / 2;
-  output::write_checkpoint(dir, straight.checkpoints[k], {k, {{"curves.csv", 7}}, "frame"});
-  const output::StoredCheckpoint stored = output::read_checkpoint(dir);
-  Recorder restarted;
-  Simulation(m, {}, stored.simulation).run(&restarted);
-  expect_same_continuation(straight, k, restarted);
-  // The crossings twisted against friction: torsional friction was at work.
-  ASSERT_TRUE(straight.increments.back().points > 0);
+  // crossings twist and stick or slip. Restarted through the file from the middle of the shear;
+  // with the constant tangential penalty, then with an elastic slip (the stick stiffness from the
+  // normal force, not a history: nothing more to carry over).
+  for (const std::string stick : {"", "\nelastic_slip = 5e-6"}) {
+    SCOPED_TRACE(stick.empty() ? "tangential penalty" : "elastic slip");
+    Model m = example("picture-frame.toml",
+                      {{"penalty", "1.5e6\nfriction = 0.2\ntorsional_friction = true" + stick},
+                       {"max_angle", "65.0"}});
+    ASSERT_EQ(m.steps.size(), 2u);
+    ASSERT_EQ(m.spline_contacts[0].friction.elastic_slip, stick.empty() ? 0.0 : 5e-6);
+    m.steps.back().end_time = m.picture_frame->shear_start + 0.06;
+    Recorder straight;
+    Simulation(m).run(&straight);
+    std::size_t first_shear = 0;
+    while (straight.increments[first_shear].time <= m.picture_frame->shear_start)
+      ++first_shear;
+    ASSERT_GE(straight.increments.size(), first_shear + 4);
+    const std::size_t k = (first_shear + straight.increments.size()) / 2;
+    output::write_checkpoint(dir, straight.checkpoints[k], {k, {{"curves.csv", 7}}, "frame"});
+    const output::StoredCheckpoint stored = output::read_checkpoint(dir);
+    Recorder restarted;
+    Simulation(m, {}, stored.simulation).run(&restarted);
+    expect_same_continuation(straight, k, restarted);
+    // The crossings twisted against friction: torsional friction was at work.
+    ASSERT_TRUE(straight.increments.back().points > 0);
+  }
 }
 
 TEST_F(Checkpoint, SurfaceContactFabricThroughTheFileGoesOnBitForBit) {
