@@ -14,6 +14,7 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace yarnsim::contact {
 namespace {
@@ -286,36 +287,36 @@ Vector3d on_b(const Vec18& residual) {
   return residual.segment<3>(9) + residual.segment<3>(12) + residual.segment<3>(15);
 }
 
-/// Test 2, one coefficient: dragging A along +x by u from first touch (history held), the force
-/// on A points -x with magnitude eps_t u inside the cone and mu f_n outside it.
-TEST(SplineFriction, StraightBeamsStickThenSlipAtMuTimesTheNormalForce) {
+/// Drags A along +x by u = 3 cone i / n (i = 1 ... n, those within 1e-3 of the cone left out:
+/// either state within round-off) from first touch, the history held, pressed by delta (m); `cone`
+/// is the radius of the friction's cone in displacement (m: mu f_n / eps_t, or the elastic slip).
+/// Checks that the point sticks with the force mu f_n u / cone inside it and slides at mu f_n
+/// outside it, on A along -x (opposing the sliding), the internal forces balanced, the slip
+/// increment u - cone and the stick stiffness mu f_n / cone. Returns {stuck, slipping}.
+std::pair<int, int> drag_from_first_touch(const CoulombFriction& friction, double delta,
+                                          double cone, int n) {
   const SplineCurve c3(3);
   const LinearPenalty law(kEps);
-  const double delta = 2e-6;
-  const double f_n = kEps * delta; // 3 N
-  const double eps_t = 1e5;
-  const double mu = 0.3;
-  const CoulombFriction friction(mu, mu, eps_t);
+  const double f_n = kEps * delta;
+  const double mu = friction.mu_s();
   const Pair p0 = straight_crossing(c3, delta);
   const FrictionHistory history = first_touch(evaluate(p0, law, friction, {}).contact);
   const Evaluation e0 = evaluate(p0, law, friction, history);
-  ASSERT_TRUE(e0.friction.active);
+  EXPECT_TRUE(e0.friction.active);
   EXPECT_EQ(e0.friction.force.norm(), 0.0);
-  const double u_star = mu * f_n / eps_t; // 9 microns
   int stuck = 0;
   int slipping = 0;
-  for (int i = 1; i <= 40; ++i) {
-    const double u = 3.0 * u_star * i / 40.0;
-    if (std::abs(u - u_star) < 1e-3 * u_star) {
-      continue; // on the cone: either state within round-off
-    }
+  for (int i = 1; i <= n; ++i) {
+    const double u = 3.0 * cone * i / n;
+    if (std::abs(u - cone) < 1e-3 * cone)
+      continue;
     Pair p = p0;
     p.xa.row(0).array() += u;
     const Evaluation e = evaluate(p, law, friction, history);
-    ASSERT_TRUE(e.friction.active);
+    EXPECT_TRUE(e.friction.active);
     EXPECT_NEAR(e.contact.force, f_n, 1e-12 * f_n);
-    const double expected = eps_t * u < mu * f_n ? eps_t * u : mu * f_n;
-    EXPECT_EQ(e.friction.slipping, eps_t * u > mu * f_n) << "u = " << u;
+    const double expected = mu * f_n * std::min(u / cone, 1.0);
+    EXPECT_EQ(e.friction.slipping, u > cone) << "u = " << u << ", f_n = " << f_n;
     (e.friction.slipping ? slipping : stuck)++;
     EXPECT_NEAR(e.friction.force.norm(), expected, 1e-12 * expected) << "u = " << u;
     // Opposes the sliding of A (+x): the force on A points -x; the internal forces are its
@@ -323,12 +324,19 @@ TEST(SplineFriction, StraightBeamsStickThenSlipAtMuTimesTheNormalForce) {
     EXPECT_LT((e.friction.force + expected * Vector3d::UnitX()).norm(), 1e-12 * expected);
     EXPECT_LT((on_a(e.friction.residual) - expected * Vector3d::UnitX()).norm(), 1e-12 * expected);
     EXPECT_LT((on_b(e.friction.residual) + on_a(e.friction.residual)).norm(), 1e-14 * expected);
-    if (e.friction.slipping) {
-      EXPECT_NEAR(e.friction.slip_increment, u - u_star, 1e-12 * u);
-    } else {
-      EXPECT_EQ(e.friction.slip_increment, 0.0);
-    }
+    EXPECT_NEAR(e.friction.stiffness, mu * f_n / cone, 1e-12 * mu * f_n / cone);
+    EXPECT_NEAR(e.friction.slip_increment, std::max(u - cone, 0.0), 1e-12 * u);
   }
+  return {stuck, slipping};
+}
+
+/// Test 2, one coefficient: dragging A along +x by u from first touch (history held), the force
+/// on A points -x with magnitude eps_t u inside the cone and mu f_n outside it.
+TEST(SplineFriction, StraightBeamsStickThenSlipAtMuTimesTheNormalForce) {
+  const double delta = 2e-6, eps_t = 1e5, mu = 0.3;
+  const double f_n = kEps * delta; // 3 N
+  const auto [stuck, slipping] =
+      drag_from_first_touch(CoulombFriction(mu, mu, eps_t), delta, mu * f_n / eps_t, 40); // 9 um
   EXPECT_GT(stuck, 5);
   EXPECT_GT(slipping, 5);
 }
@@ -337,34 +345,10 @@ TEST(SplineFriction, StraightBeamsStickThenSlipAtMuTimesTheNormalForce) {
 /// the point sticks up to a displacement of gamma at every normal force (the force mu f_n u /
 /// gamma), then slides at mu f_n, and the slip increment is u - gamma.
 TEST(SplineFriction, WithAnElasticSlipEveryNormalForceSticksOverTheSameDisplacement) {
-  const SplineCurve c3(3);
-  const LinearPenalty law(kEps);
-  const double mu = 0.3;
   const double gamma = 4e-6; // m
-  const CoulombFriction friction(mu, mu, 0.0, 0.0, gamma);
+  const CoulombFriction friction(0.3, 0.3, 0.0, 0.0, gamma);
   for (const double delta : {2e-8, 2e-7, 2e-6}) { // 0.03 to 3 N
-    const double f_n = kEps * delta;
-    const Pair p0 = straight_crossing(c3, delta);
-    const FrictionHistory history = first_touch(evaluate(p0, law, friction, {}).contact);
-    int stuck = 0;
-    int slipping = 0;
-    for (int i = 1; i <= 30; ++i) {
-      const double u = 3.0 * gamma * i / 30.0;
-      if (std::abs(u - gamma) < 1e-3 * gamma)
-        continue; // on the cone: either state within round-off
-      Pair p = p0;
-      p.xa.row(0).array() += u;
-      const Evaluation e = evaluate(p, law, friction, history);
-      ASSERT_TRUE(e.friction.active);
-      ASSERT_NEAR(e.contact.force, f_n, 1e-12 * f_n);
-      EXPECT_EQ(e.friction.slipping, u > gamma) << "u = " << u << ", f_n = " << f_n;
-      (e.friction.slipping ? slipping : stuck)++;
-      const double expected = mu * f_n * std::min(u / gamma, 1.0);
-      EXPECT_LT((e.friction.force + expected * Vector3d::UnitX()).norm(), 1e-12 * expected)
-          << "u = " << u << ", f_n = " << f_n;
-      EXPECT_NEAR(e.friction.stiffness, mu * f_n / gamma, 1e-12 * mu * f_n / gamma);
-      EXPECT_NEAR(e.friction.slip_increment, std::max(u - gamma, 0.0), 1e-12 * u);
-    }
+    const auto [stuck, slipping] = drag_from_first_touch(friction, delta, gamma, 30);
     EXPECT_EQ(stuck, 9);
     EXPECT_EQ(slipping, 20);
   }
