@@ -3,6 +3,7 @@
 #include "engine/model/contact_friction.hpp"
 #include "engine/model/deck.hpp"
 #include "engine/textile/biaxial.hpp"
+#include "engine/textile/shear_kinematics.hpp"
 #include "engine/textile/shear_tests.hpp"
 #include "engine/textile/specimen.hpp"
 #include "engine/textile/texgen.hpp"
@@ -836,7 +837,7 @@ private:
     s.clamp_length = t.number("clamp_length").value_or(0.0);
     if (t.valid("height") && t.valid("width") &&
         (!t.present("clamp_length") || t.valid("clamp_length")) &&
-        !(s.height - 2 * s.clamp_length >= 2 * s.width * (1 - 1e-12))) {
+        !textile::bias_extension_zones_fit(s.height - 2 * s.clamp_length, s.width)) {
       t.error(t.present("clamp_length") ? "clamp_length" : "height",
               fmt::format("expected a free length height - 2 clamp_length >= 2 width = {} m (the "
                           "three zones of the test and the benchmark's energy method need it), "

@@ -50,7 +50,7 @@ double bias_extension_displacement(double gamma, double H, double W) {
 
 std::vector<double> bias_extension_normalised_force(std::span<const double> gamma,
                                                     std::span<const double> F, double H, double W) {
-  if (!(W > 0 && H >= 2 * W) || gamma.size() != F.size())
+  if (!bias_extension_zones_fit(H, W) || gamma.size() != F.size())
     throw std::invalid_argument(fmt::format(
         "bias extension: expected H >= 2 W > 0 and as many forces as angles, found H = {} m, "
         "W = {} m, {} angles, {} forces",

@@ -32,6 +32,14 @@ double bias_extension_angle(double d, double H, double W);
 /// The inverse: d(gamma) = sqrt(2) (H - W) cos(pi/4 - gamma/2) - (H - W).
 double bias_extension_displacement(double gamma, double H, double W);
 
+/// Whether a bias extension specimen's free length H (m) holds the test's three zones, H >= 2 W
+/// (W its width, m), to round-off (1e-12 relative): the benchmark's H / W = 2 from a height and
+/// two clamp lengths (0.21 - 2 x 0.005 = 0.19999999999999998 m for W = 0.1 m) passes. The deck,
+/// the test's set-up and the energy method below all ask this.
+inline bool bias_extension_zones_fit(double H, double W) {
+  return W > 0 && H >= 2 * W * (1 - 1e-12);
+}
+
 /// Normalised shear force F_sh(gamma) of a bias extension test by the benchmark's energy method
 /// (Cao 2008, eq. 18): from the power balance F d' = C_s(gamma) A_C gamma' + C_s(gamma/2) A_B
 /// gamma'/2, A_C = (2 H W - 3 W^2)/2, A_B = W^2, C_s = F_sh cos(gamma):
@@ -42,8 +50,8 @@ double bias_extension_displacement(double gamma, double H, double W);
 /// from F_sh(0) = F(0) / (2 W) (the formula's fixed point at gamma = 0); where gamma_i / 2 lies
 /// above the last computed sample the interpolation runs to the unknown F_sh(gamma_i), and the
 /// formula, linear in it, is solved for it. Returns F_sh at every sample, N/m. Throws
-/// std::invalid_argument unless H >= 2 W > 0 (zone C exists: 2 H - 3 W > 0), the lengths agree and
-/// gamma increases.
+/// std::invalid_argument unless bias_extension_zones_fit(H, W) (zone C exists: 2 H - 3 W > 0),
+/// the lengths agree and gamma increases.
 std::vector<double> bias_extension_normalised_force(std::span<const double> gamma,
                                                     std::span<const double> F, double H, double W);
 

@@ -313,7 +313,7 @@ void add_bias_extension_test(Fabric& fabric, const BiasSpecimenParameters& speci
                      specimen.angle));
   const double H = specimen.height - 2 * specimen.clamp_length;
   const double W = specimen.width;
-  if (!(H >= 2 * W * (1 - 1e-12)))
+  if (!textile::bias_extension_zones_fit(H, W))
     fail(fmt::format("expected a free length H - 2 clamp_length >= 2 W = {} m (the three zones "
                      "of the test and the benchmark's energy method need it), found {} m",
                      2 * W, H));
