@@ -249,7 +249,8 @@ TEST_F(Checkpoint, PictureFrameWithFrictionGoesOnBitForBit) {
       ++first_shear;
     ASSERT_GE(straight.increments.size(), first_shear + 4);
     const std::size_t k = (first_shear + straight.increments.size()) / 2;
-    output::write_checkpoint(dir, straight.checkpoints[k], {k, {{"curves.csv", 7}}, "frame"});
+    output::write_checkpoint(dir, straight.checkpoints[k],
+                             {static_cast<int>(k), {{"curves.csv", 7}}, "frame"});
     const output::StoredCheckpoint stored = output::read_checkpoint(dir);
     Recorder restarted;
     Simulation(m, {}, stored.simulation).run(&restarted);
