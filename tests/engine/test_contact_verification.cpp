@@ -309,7 +309,7 @@ TEST(ContactVerification, APointInTheNeighbouringSegmentIsHandedToItWhereItsOwnS
   // it the first segment's pair is projected again from the second's point and owns it, with the
   // force of a fresh projection.
   constexpr double kPenetration = 1e-4, kPenalty = 1e5;
-  for (const auto [cross, radius] : {std::pair{0.19, 0.01}, std::pair{0.125, 0.05}}) {
+  for (const auto& [cross, radius] : {std::pair{0.19, 0.01}, std::pair{0.125, 0.05}}) {
     SCOPED_TRACE(cross);
     const Model m = knot_crossing(cross, kPenetration, radius);
     const Simulation sim(m);

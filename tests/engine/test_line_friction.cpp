@@ -179,10 +179,12 @@ TEST(LineFriction, NewtonConvergesQuadraticallyInStickAndSlip) {
     std::printf("\n");
     // Each residual between 1e-2 and 1e-6 (the round-off floor is 1e-10 here): r_k+1 < 10^1.5 r_k^2
     // (a linear rate fails it).
-    for (std::size_t k = 1; k + 1 < r.size(); ++k)
-      if (r[k] > 1e-6 && r[k] < 1e-2)
+    for (std::size_t k = 1; k + 1 < r.size(); ++k) {
+      if (r[k] > 1e-6 && r[k] < 1e-2) {
         EXPECT_LT(std::log10(r[k + 1]), 2 * std::log10(r[k]) + 1.5)
             << "t = " << s.time << ", iteration " << k;
+      }
+    }
     EXPECT_LE(r.size(), 8u) << "t = " << s.time;
     ++(s.contact.slip == 0 ? stick : s.contact.stick == 0 ? slip : partial);
   }
