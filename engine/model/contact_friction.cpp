@@ -5,7 +5,7 @@
 namespace yarnsim {
 
 void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParameters& law,
-                           FrictionParameters& friction) {
+                           FrictionParameters& friction, std::string_view explicit_step) {
   const bool one = t.present("friction");
   const bool two = t.present("static_friction") || t.present("kinetic_friction");
   if (one && two) {
@@ -51,6 +51,12 @@ void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParame
       t.error("tangential_penalty", "give either 'tangential_penalty' (a constant stick "
                                     "stiffness) or 'elastic_slip' (the stiffness mu f_n / "
                                     "elastic_slip), not both");
+    if (!explicit_step.empty())
+      t.error("elastic_slip",
+              fmt::format("'elastic_slip' is not available on the explicit path in this version "
+                          "(its stable step needs a constant stick stiffness; {} is explicit): "
+                          "give tangential_penalty instead",
+                          explicit_step));
   } else if (t.present("tangential_penalty"))
     friction.tangential_penalty = t.number("tangential_penalty").value_or(0);
   else if (law.exponent == 1.0)

@@ -10,15 +10,19 @@
 #include "engine/model/deck_schema.hpp"
 #include "engine/model/model.hpp"
 
+#include <string_view>
+
 namespace yarnsim {
 
 /// Reads the friction keys of `t` into `friction` (left frictionless when there are none),
 /// reporting their problems on `t`: both forms given, only one of static and kinetic, kinetic
 /// above static, a tangential penalty, elastic slip or torsional key without friction, a
 /// torsional radius or penalty without torsional_friction = true, both a tangential penalty and
-/// an elastic slip, a tangential penalty missing with a power law (whose penalty is not in N/m).
-/// `law` is the table's normal law.
+/// an elastic slip, a tangential penalty missing with a power law (whose penalty is not in N/m),
+/// an elastic slip in a deck with an explicit step (whose stable step needs a constant stick
+/// stiffness). `law` is the table's normal law; `explicit_step` says which step of the deck is
+/// explicit (for the message, e.g. "steps[2]"), empty when none is.
 void read_contact_friction(const deck::CheckedTable& t, const InterfaceLawParameters& law,
-                           FrictionParameters& friction);
+                           FrictionParameters& friction, std::string_view explicit_step);
 
 } // namespace yarnsim

@@ -1471,23 +1471,15 @@ private:
     }
   }
 
-  /// Friction's `elastic_slip` gives a stick stiffness that follows the normal force, which the
-  /// explicit path's stable step cannot bound before the run: reported at the key when the deck
-  /// has an explicit step.
-  void contact_elastic_slip_steps(const CheckedTable& t) const {
-    if (t.present("elastic_slip") && explicit_step_ != nullptr)
-      t.error("elastic_slip",
-              fmt::format("'elastic_slip' is not available on the explicit path in this version "
-                          "(its stable step needs a constant stick stiffness; {} is explicit): "
-                          "give tangential_penalty instead",
-                          explicit_step_->path()));
+  /// Which step is explicit, for messages ("steps[2]"), or empty.
+  std::string explicit_step_path() const {
+    return explicit_step_ != nullptr ? explicit_step_->path() : std::string();
   }
 
   /// Contact damping (the law's normal `damping`, friction's `tangential_damping`) acts through
   /// the velocities of implicit dynamic steps: reported at the key when the deck has an explicit
   /// step (not available there) or no dynamic step (it would act on nothing).
   void contact_damping_steps(const CheckedTable& t, double normal, double tangential) const {
-    contact_elastic_slip_steps(t);
     for (const auto& [key, value] :
          {std::pair<const char*, double>{"damping", normal}, {"tangential_damping", tangential}}) {
       if (!(value > 0))
@@ -1572,7 +1564,7 @@ private:
           if (t.present(key))
             t.error(key, fmt::format("'{}' applies only to type = \"spline\"", key));
         // Pointwise friction with its tangential damping, and torsional friction.
-        read_contact_friction(t, c.law, c.friction);
+        read_contact_friction(t, c.law, c.friction, explicit_step_path());
         contact_damping_steps(t, 0, c.friction.tangential_damping);
         c.margin = t.number("margin").value_or(0);
         model_.surface_contacts.push_back(std::move(c));
@@ -1582,7 +1574,7 @@ private:
       c.name = name;
       contact_groups(t, {spline_names_, "spline", "[[splines]]"}, c.group_a, c.group_b);
       contact_law(t, c.law);
-      read_contact_friction(t, c.law, c.friction);
+      read_contact_friction(t, c.law, c.friction, explicit_step_path());
       contact_damping_steps(t, c.law.damping, c.friction.tangential_damping);
       c.self_contact = t.boolean("self_contact").value_or(false);
       c.margin = t.number("margin").value_or(0);

@@ -48,12 +48,23 @@ std::string torsion_text(const FrictionParameters& f) {
                                           : std::string("tangential penalty x radius^2"));
 }
 
-/// The stick stiffness of a friction law: the constant tangential penalty, or the elastic slip.
-std::string stick_text(const FrictionParameters& f) {
+/// A friction law's coefficients and stick stiffness: the constant tangential penalty (with one
+/// coefficient, also the stick displacement per newton of normal force), or the elastic slip.
+std::string friction_text(const FrictionParameters& f) {
+  if (!f.active())
+    return ", frictionless";
+  const std::string mu = f.mu_static == f.mu_kinetic
+                             ? fmt::format("mu = {:g}", f.mu_static)
+                             : fmt::format("mu_s = {:g}, mu_k = {:g}", f.mu_static, f.mu_kinetic);
   if (f.elastic_slip > 0)
-    return fmt::format("elastic slip {:.6g} mm (the stick stiffness mu f_n / elastic slip)",
-                       1e3 * f.elastic_slip);
-  return fmt::format("tangential penalty {:.6g} N/m", f.tangential_penalty);
+    return fmt::format(", friction {}, elastic slip {:.6g} mm (the stick stiffness mu f_n / "
+                       "elastic slip)",
+                       mu, 1e3 * f.elastic_slip);
+  if (f.mu_static == f.mu_kinetic)
+    return fmt::format(", friction {}, tangential penalty {:.6g} N/m (the stick displacement "
+                       "mu f_n / eps_t is {:.3g} mm per N of normal force)",
+                       mu, f.tangential_penalty, 1e3 * f.mu_static / f.tangential_penalty);
+  return fmt::format(", friction {}, tangential penalty {:.6g} N/m", mu, f.tangential_penalty);
 }
 
 } // namespace
@@ -124,17 +135,7 @@ std::string check_report(const Model& model) {
                      model.spline_contacts.size() + model.surface_contacts.size());
   for (const SplineContactDefinition& c : model.spline_contacts) {
     const FrictionParameters& f = c.friction;
-    const std::string friction =
-        !f.active() ? std::string(", frictionless")
-        : f.mu_static == f.mu_kinetic && f.elastic_slip == 0
-            ? fmt::format(", friction mu = {:g}, tangential penalty {:.6g} N/m (the stick "
-                          "displacement mu f_n / eps_t is {:.3g} mm per N of normal force)",
-                          f.mu_static, f.tangential_penalty,
-                          1e3 * f.mu_static / f.tangential_penalty)
-        : f.mu_static == f.mu_kinetic
-            ? fmt::format(", friction mu = {:g}, {}", f.mu_static, stick_text(f))
-            : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, {}", f.mu_static, f.mu_kinetic,
-                          stick_text(f));
+    const std::string friction = friction_text(f);
     const std::string torsion = torsion_text(f);
     // Who touches whom: two groups, or one group within itself (its splines with each other,
     // and each spline with itself unless within_spline is off, as in a fabric's warp-warp).
@@ -149,10 +150,7 @@ std::string check_report(const Model& model) {
   }
   for (const SurfaceContactDefinition& c : model.surface_contacts) {
     const FrictionParameters& f = c.friction;
-    const std::string friction = !f.active()
-                                     ? std::string(", frictionless")
-                                     : fmt::format(", friction mu_s = {:g}, mu_k = {:g}, {}",
-                                                   f.mu_static, f.mu_kinetic, stick_text(f));
+    const std::string friction = friction_text(f);
     out += fmt::format("  surface contact '{}': {} x {} surfaces, {}, margin {:.6g} mm{}{}\n",
                        c.name, c.group_a.size(), c.group_b.size(), law_text(c.law), 1e3 * c.margin,
                        friction, torsion_text(f));

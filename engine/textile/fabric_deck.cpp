@@ -415,13 +415,8 @@ public:
                                        "(the surface contact has no contact within a group in "
                                        "this version)");
     if (contact) {
-      read_contact_friction(*contact, law, friction);
-      if (contact->present("elastic_slip") && loading && loading->type == StepType::Explicit)
-        contact->error("elastic_slip",
-                       fmt::format("'elastic_slip' is not available on the explicit path in this "
-                                   "version (its stable step needs a constant stick stiffness; {} "
-                                   "type = \"explicit\"): give tangential_penalty instead",
-                                   block));
+      read_contact_friction(*contact, law, friction,
+                            loading && loading->type == StepType::Explicit ? block : std::string());
       // Contact damping acts through the velocities of implicit dynamic steps.
       for (const auto& [damping, value] : {std::pair<const char*, double>{"damping", law.damping},
                                            {"tangential_damping", friction.tangential_damping}}) {

@@ -38,7 +38,7 @@ check surface "$repo/examples/biaxial-surface-k1.toml" \
 sed 's/^friction = 0.2 .*/friction = 0.2\ntorsional_friction = true/' \
   "$repo/examples/biaxial-surface-k1-friction.toml" > surface-torsion.toml
 check surface-torsion surface-torsion.toml \
-  "^  surface contact 'warp-weft': .*, friction mu_s = 0.2, mu_k = 0.2, tangential penalty 350000 N/m, torsional friction at the crossings (radius from the yarn widths, penalty tangential penalty x radius^2)$"
+  "^  surface contact 'warp-weft': .*, friction mu = 0.2, tangential penalty 350000 N/m (the stick displacement mu f_n / eps_t is 0.000571 mm per N of normal force), torsional friction at the crossings (radius from the yarn widths, penalty tangential penalty x radius^2)$"
 rm -f surface-torsion.toml
 # With an elastic slip: said in place of the tangential penalty, on every spline contact.
 check elastic-slip "$repo/examples/bias-extension-twintex-friction.toml" \
