@@ -1,5 +1,7 @@
 #include "contact/friction.hpp"
 
+#include "contact/projection_jet.hpp"
+
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -34,6 +36,27 @@ void add_identity_blocks(Mat3x18& m, const Vec6& c, double s) {
       m(d, 3 * k + d) += s * c(k);
     }
   }
+}
+
+/// sum_k f_k d2(g_t,k)/dx2, 18 x 18, N/m: the elastic gap g_t = Delta_A C_A,u(u_A) -
+/// Delta_B C_B,u(u_B) (local parameters, Delta = u - u^s, the anchor held) contracted with the
+/// force f (held), through the closest points' second-order jets (projection_jet.hpp): the
+/// curvature of the projection enters through d2u/dx2.
+Eigen::Matrix<double, 18, 18> gap_hessian_along(const Matrix3d& control_A,
+                                                const SegmentBasis& basis_A, double ua,
+                                                double delta_a, const Matrix3d& control_B,
+                                                const SegmentBasis& basis_B, double ub,
+                                                double delta_b, const Vector3d& f) {
+  Jet jua, jub;
+  closest_point_jets(control_A, basis_A, ua, control_B, basis_B, ub, jua, jub);
+  const Jet3T<18> ta = jet_tangent(control_A, basis_A, 0, jua);
+  const Jet3T<18> tb = jet_tangent(control_B, basis_B, 3, jub);
+  const Jet fa = f(0) * ta.c[0] + f(1) * ta.c[1] + f(2) * ta.c[2];
+  const Jet fb = f(0) * tb.c[0] + f(1) * tb.c[1] + f(2) * tb.c[2];
+  Jet da = jua, db = jub; // Delta_A, Delta_B: u less the anchor's (constant) parameter
+  da.v = delta_a;
+  db.v = delta_b;
+  return (da * fa - db * fb).h;
 }
 
 } // namespace
@@ -78,11 +101,14 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   if (!regular_point) {
     return;
   }
-  if (options.compute_tangent && (sensitivity == nullptr || !sensitivity->valid)) {
+  const bool conjugate = options.force == FrictionForce::ConjugateToTheGap;
+  if ((options.compute_tangent || conjugate) && (sensitivity == nullptr || !sensitivity->valid)) {
     throw std::invalid_argument(
-        "spline_friction: the tangent needs the normal contact's SplineContactSensitivity "
-        "(pass one to spline_contact); found " +
-        std::string(sensitivity == nullptr ? "none" : "one not valid for this contact"));
+        std::string("spline_friction: ") +
+        (conjugate ? "the force conjugate to the gap" : "the tangent") +
+        " needs the normal contact's SplineContactSensitivity (pass one to spline_contact); "
+        "found " +
+        (sensitivity == nullptr ? "none" : "one not valid for this contact"));
   }
 
   const double ha = basis_A.length();
@@ -139,8 +165,27 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
     out.sliding_velocity = v_rel - n * n.dot(v_rel);
   }
   out.force = f_c - law.c_t() * out.sliding_velocity;
-  for (int k = 0; k < 6; ++k) {
-    out.residual.segment<3>(3 * k) = -w(k) * out.force;
+
+  // dg_t/dx, 3 x 18, through the local parameters' derivatives du/dx = dxi/dx / h: for the
+  // tangent, and for the residual conjugate to the gap.
+  const bool with_gradient = options.compute_tangent || conjugate;
+  Vec18 du_a = Vec18::Zero(), du_b = Vec18::Zero();
+  Mat3x18 dgt = Mat3x18::Zero();
+  if (with_gradient) {
+    du_a = sensitivity->parameters.row(0).transpose() / ha;
+    du_b = sensitivity->parameters.row(1).transpose() / hb;
+    const Vector3d g_aa = control_A * basis_A.second_local();
+    const Vector3d g_bb = -(control_B * basis_B.second_local());
+    add_identity_blocks(dgt, wa, delta_a);
+    add_identity_blocks(dgt, wb, delta_b);
+    dgt.noalias() += (g_a + delta_a * g_aa) * du_a.transpose();
+    dgt.noalias() += (g_b + delta_b * g_bb) * du_b.transpose();
+  }
+  if (conjugate) {
+    out.residual.noalias() = dgt.transpose() * out.force;
+  } else {
+    for (int k = 0; k < 6; ++k)
+      out.residual.segment<3>(3 * k) = -w(k) * out.force;
   }
   // The blend of the all-angle contact: everything times the point share s (in its tangent,
   // r grad s^T); the slip, a distance, is the point's.
@@ -157,19 +202,6 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
   if (!options.compute_tangent) {
     return;
   }
-
-  // Derivatives of the local parameters: du/dx = dxi/dx / h.
-  const Vec18 du_a = sensitivity->parameters.row(0).transpose() / ha;
-  const Vec18 du_b = sensitivity->parameters.row(1).transpose() / hb;
-  const Vector3d g_aa = control_A * basis_A.second_local();
-  const Vector3d g_bb = -(control_B * basis_B.second_local());
-
-  // dg_t/dx, 3 x 18.
-  Mat3x18 dgt = Mat3x18::Zero();
-  add_identity_blocks(dgt, wa, delta_a);
-  add_identity_blocks(dgt, wb, delta_b);
-  dgt.noalias() += (g_a + delta_a * g_aa) * du_a.transpose();
-  dgt.noalias() += (g_b + delta_b * g_bb) * du_b.transpose();
 
   // df/dx, 3 x 18.
   Mat3x18 df;
@@ -200,11 +232,18 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
     df.noalias() -= law.c_t() * dvt;
   }
 
-  // residual = -kron(w, f): tangent = -kron(wa, f) du_a^T - kron(wb, f) du_b^T - kron(w, df).
-  for (int k = 0; k < 6; ++k) {
-    out.tangent.block<3, 18>(3 * k, 0).noalias() =
-        -(wa(k) * force) * du_a.transpose() - (wb(k) * force) * du_b.transpose();
-    out.tangent.block<3, 18>(3 * k, 0).noalias() -= w(k) * df;
+  if (conjugate) {
+    // residual = (dg_t/dx)^T f: tangent = (dg_t/dx)^T df/dx + sum_k f_k d2(g_t,k)/dx2.
+    out.tangent.noalias() = dgt.transpose() * df;
+    out.tangent +=
+        gap_hessian_along(control_A, basis_A, ua, delta_a, control_B, basis_B, ub, delta_b, force);
+  } else {
+    // residual = -kron(w, f): tangent = -kron(wa, f) du_a^T - kron(wb, f) du_b^T - kron(w, df).
+    for (int k = 0; k < 6; ++k) {
+      out.tangent.block<3, 18>(3 * k, 0).noalias() =
+          -(wa(k) * force) * du_a.transpose() - (wb(k) * force) * du_b.transpose();
+      out.tangent.block<3, 18>(3 * k, 0).noalias() -= w(k) * df;
+    }
   }
   if (blended) {
     out.tangent *= s;

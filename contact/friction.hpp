@@ -53,16 +53,35 @@
 // damping, which adds to f_n), so the force stays continuous through stick-slip switches; it
 // enters the tangent through PairRates::velocity_per_displacement as the normal damping does.
 //
-// Force and sign: f acts on A at its contact point and -f on B at its. Dragging A along +x over
-// B moves A's anchor point ahead (+x) of the contact point: g_t points -x and so does the force
-// on A, which opposes the sliding of A relative to B. The residual (contribution to the
-// internal forces, as in spline_contact) is -N_A,k(xi_A) f at A's control point k and
-// +N_B,k(xi_B) f at B's: residual = -kron(w, f), w = [N_A; -N_B].
+// Force and sign: f is the force on A (on B: the opposite). Dragging A along +x over B moves A's
+// anchor point ahead (+x) of the contact point: g_t points -x and so does the force on A, which
+// opposes the sliding of A relative to B.
 //
-// Limitations. The spline carries translations only, so the moments (r_A + r_B) n x f that
-// carry the force from the yarns' surfaces to their centre lines are dropped: the point forces
-// +f at C_A and -f at C_B balance in force but leave the couple g x f (|g| ~ r_A + r_B). The
-// kernel evaluates friction only for a regular point projection: on the degenerate
+// Force and work (FrictionForce). Two ways carry f to the positions (residual: the contribution
+// to the internal forces, as in spline_contact):
+//   at the contact points: f at C_A and -f at C_B, residual = -kron(w, f), w = [N_A; -N_B];
+//   conjugate to the gap:  residual = (dg_t/dx)^T f.
+// The second does work on the elastic gap it is computed from: in stick with a constant penalty
+// it is the gradient of the stored energy eps_t |g_t|^2 / 2, in slip its work on the slip is the
+// dissipation mu f_n |dg_t|, and as g_t is objective it has no resultant and, f parallel to g_t
+// (no damping), no moment. To leading order in the anchor's distance, dg_t = C_A,u du_A -
+// C_B,u du_B = -(I - n n^T) G dx + |g| dn, G = kron(w^T, I3): the point forces plus
+// |g| (dn/dx)^T f, forces through the turning of the normal that balance the point forces'
+// couple g x f (|g| ~ r_A + r_B). The point forces' work differs from f . dg_t by f . |g| dn:
+// where crimped yarns roll over each other the explicit path's energy balance failed with them
+// (formulation.md, "Friction on the explicit path"). On each yarn the two have the same
+// resultant; they differ by that couple, which the conjugate force puts where the translations
+// can carry it (on straight yarns crossing at right angles, with f along A: all of it in A's
+// bending, as B could take its share only as torsion), and they do the same work on motions
+// that do not turn the normal.
+//
+// Limitations. The spline carries translations only, so the moments r_A n x f and r_B n x f of
+// the force at the yarns' surfaces about their centre lines are either dropped (point forces) or
+// carried by translations through dn/dx, spread over the two segments' control points, which
+// asks for bending stiffness where the contact conforms (a flexible yarn wrapped over a pin:
+// 1 - kappa |g| -> 0 makes dxi/dx large). Moments on the nodes' rotations, as the surface
+// contact's friction has, would carry them as they are. The kernel evaluates friction only for a
+// regular point projection: on the degenerate
 // (near-parallel) path of the point contact alone it reports no friction (`active` false). In the
 // all-angle contact (line_contact.hpp) it acts on the point part with its share s: the force,
 // the bound mu f_n and the stick stiffness all scale by s, so the stick/slip decision is the
@@ -152,9 +171,25 @@ inline FrictionHistory first_touch(const SplineContactResult& contact) {
   return {contact.xi_A, contact.xi_B, true, 0.0, true};
 }
 
+/// How the friction force f of a point reaches the 18 positions (the file's comment, "Force and
+/// work").
+enum class FrictionForce {
+  /// Point forces f at C_A and -f at C_B: residual = -kron(w, f). They leave the couple g x f,
+  /// and their work is not f . dg_t; but a flexible yarn wrapped over a crossing yarn (the
+  /// capstan) carries them, and Newton converges there. The implicit path's.
+  AtContactPoints,
+  /// residual = (dg_t/dx)^T f: the force does work on the elastic gap it is computed from, with
+  /// no resultant and no moment. It carries the couple by translations through the turning of
+  /// the normal, which a yarn without bending stiffness wrapped over a crossing yarn cannot take
+  /// (tests/engine/test_capstan.cpp: Newton stalls). The explicit path's, whose energy balance
+  /// needs it (formulation.md, "Friction on the explicit path").
+  ConjugateToTheGap,
+};
+
 /// Controls of the friction kernel.
 struct FrictionOptions {
   bool compute_tangent = true; ///< false: residual only (explicit dynamics); tangent zeroed
+  FrictionForce force = FrictionForce::AtContactPoints;
 };
 
 /// Friction state, residual and tangent of one contact point. The 18 DOFs are those of
@@ -182,7 +217,8 @@ struct SplineFrictionResult {
   /// The history to commit if this iterate is accepted: the anchor (kept in stick, returned
   /// onto the cone in slip) and stuck = !slipping.
   FrictionHistory history;
-  /// Contribution to the internal force vector, N: -kron(w, f), see the file's comment.
+  /// Contribution to the internal force vector, N: -kron(w, f) or (dg_t/dx)^T f
+  /// (FrictionOptions::force), see the file's comment.
   Eigen::Matrix<double, 18, 1> residual = Eigen::Matrix<double, 18, 1>::Zero();
   /// d(residual)/dx at fixed history, N/m, including the dependence of (xi_A, xi_B), of the
   /// tangents C'(xi), of f_n (slip) and of the normal and velocities (damping) on x. Not
@@ -193,19 +229,25 @@ struct SplineFrictionResult {
 /// Coulomb friction of one contact point of the segment pair (`control_A`, `basis_A`),
 /// (`control_B`, `basis_B`) (control points as columns, metres), whose normal contact is
 /// `contact`: the result of spline_contact for the same positions (and the same `rates`, if the
-/// normal law damps). `sensitivity` is the SplineContactSensitivity spline_contact wrote for it;
-/// it is needed only for the tangent (nullptr with `options.compute_tangent` false).
-/// `history` is held fixed: the caller commits `out.history` with a converged increment.
-/// `rates` (optional) feeds the tangential damping.
+/// normal law damps). `sensitivity` is the SplineContactSensitivity spline_contact wrote for it:
+/// the tangent needs its dxi/dx, and so does the residual conjugate to the gap (nullptr is
+/// allowed for the point forces' residual alone). `history` is held fixed: the caller commits
+/// `out.history` with a converged increment. `rates` (optional) feeds the tangential damping.
 ///
-/// With `d = dxi/dx` (local u) from the projection and G_a = kron(N_A'^T, I3) (likewise G_b):
+/// With `du/dx = dxi/dx / h` (local u) from the projection and G_a = kron(N_A'^T, I3) (likewise
+/// G_b):
 ///   dg_t/dx = Delta_A G_a + Delta_B G_b + (C_A,u + Delta_A C_A,uu) du_A/dx
 ///             + (-C_B,u - Delta_B C_B,uu) du_B/dx,   Delta = u - u^s (local parameters),
 ///   stick: df/dx = eps_t dg_t/dx,
 ///   slip:  df/dx = mu t (df_n/dx)^T + mu f_n / |g_t| (I - t t^T) dg_t/dx,   t = g_t / |g_t|,
-///   tangent = -kron(w', f) du/dx - kron(w, I3) df/dx   (w' = dw/du_A, dw/du_B).
-/// Throws std::invalid_argument if the tangent is asked for and `sensitivity` is null or not
-/// valid for an active regular contact. Writes into `out`; never allocates.
+///   at the contact points: tangent = -kron(w', f) du/dx - kron(w, I3) df/dx (w' = dw/du_A,
+///                          dw/du_B),
+///   conjugate to the gap:  tangent = (dg_t/dx)^T df/dx + sum_k f_k d2(g_t,k)/dx2, the last term
+///                          through the projection's second derivatives d2u/dx2 (second-order
+///                          jets, projection_jet.hpp).
+/// Throws std::invalid_argument if the contact is an active regular point, the tangent or the
+/// conjugate residual is asked for, and `sensitivity` is null or not valid for it. Writes into
+/// `out`; never allocates.
 void spline_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
                      const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B,
                      const SplineContactResult& contact,

@@ -273,6 +273,10 @@ public:
   /// The time (s) of the configurations project() will see next: time-dependent settings
   /// (SplineContactDefinition::compaction) are taken there.
   virtual void set_time(double /*time*/) {}
+  /// Whether the configurations project() sees next belong to an explicit step: its friction
+  /// forces are conjugate to their elastic gaps, so that the energy balance it checks holds;
+  /// implicit steps take them at the contact points (contact::FrictionForce).
+  virtual void set_explicit_path(bool /*explicit_path*/) {}
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
   /// Node groups of the pairs of the last projection that are active or within reach (a

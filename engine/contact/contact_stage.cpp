@@ -35,6 +35,11 @@ void ContactStage::set_time(double t) {
     set->set_time(t);
 }
 
+void ContactStage::set_explicit_path(bool explicit_path) {
+  for (const auto& set : sets_)
+    set->set_explicit_path(explicit_path);
+}
+
 std::string ContactStage::project(const State& state, bool want_tangent,
                                   const ContactRates* rates) {
   std::string veto;

@@ -23,6 +23,8 @@ public:
   bool update_candidates(const State& state);
   /// ContactSet::set_time of every set: call before projecting the configuration of time t.
   void set_time(double t);
+  /// ContactSet::set_explicit_path of every set: call before the first projection of a step.
+  void set_explicit_path(bool explicit_path);
   std::string project(const State& state, bool want_tangent, const ContactRates* rates = nullptr);
   /// Whether some definition damps (normal or tangential damping): its project() then wants
   /// ContactRates on dynamic steps.

@@ -328,6 +328,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
     assign_friction_histories();
     contact::FrictionOptions friction_options;
     friction_options.compute_tangent = want_tangent;
+    friction_options.force = friction_force_;
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, work_.size(), 16),
         [&](const tbb::blocked_range<std::size_t>& range) {
@@ -355,8 +356,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
               pair_velocities(d, item.pair, *rates, local_rates);
               pair_rates = &local_rates;
             }
-            contact::spline_friction(A, sa, B, sb, item.result,
-                                     want_tangent ? &sensitivity_[w] : nullptr, item.history,
+            contact::spline_friction(A, sa, B, sb, item.result, &sensitivity_[w], item.history,
                                      *d.friction, f, friction_options, pair_rates);
             if (!d.torsional)
               continue;

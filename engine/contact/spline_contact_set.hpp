@@ -44,6 +44,10 @@ public:
   /// Whether some definition damps.
   bool damped() const { return damped_; }
   void set_time(double time) override { time_ = time; }
+  void set_explicit_path(bool explicit_path) override {
+    friction_force_ = explicit_path ? contact::FrictionForce::ConjugateToTheGap
+                                    : contact::FrictionForce::AtContactPoints;
+  }
   int candidates_version() const override { return candidates_version_; }
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;
@@ -201,6 +205,8 @@ private:
   std::vector<Snapshot::Warm> next_committed_; ///< commit()'s buffer, kept for its capacity
   int candidates_version_ = 0;
   double time_ = 0; ///< s, of the configurations projected (the compaction's time)
+  /// How the point friction's force reaches the positions: set_explicit_path.
+  contact::FrictionForce friction_force_ = contact::FrictionForce::AtContactPoints;
   ContactSummary summary_;
 };
 

@@ -592,9 +592,10 @@ void CentralDifference::check_balance(const EnergyBalance& e) const {
   // The balance error (energy held and dissipated, less the work put in) of a stable run with
   // forces that are potential or dissipative is the integrator's, a small fraction of the work
   // (docs/verification.md). Forces that are neither can feed a mode: the penalty friction's point
-  // forces on a fabric (docs/formulation.md, "Friction on the explicit path") rang in stick-slip
-  // while their slips "dissipated" more than the loads supplied. Such a run is stopped, not
-  // carried on with an energy it invented.
+  // forces on a fabric rang in stick-slip while their slips "dissipated" more than the loads
+  // supplied, until this path took the forces conjugate to the slips (docs/formulation.md,
+  // "Friction on the explicit path"). Such a run is stopped, not carried on with an energy it
+  // invented.
   const double supplied = std::max(supplied_max_, e.friction + e.damping);
   if (std::abs(e.error) > kBalanceTolerance * supplied + energy_floor_)
     fail(fmt::format("the energy balance is off by {:.4g} J, {:.3g} % of the {:.4g} J supplied "

@@ -1108,6 +1108,8 @@ void Simulation::run(SimulationObserver* observer) {
   for (; step_ < static_cast<int>(model_.steps.size()); ++step_, next_dt_ = 0) {
     const std::size_t s = step_;
     const SolutionStep& step = model_.steps[s];
+    if (contact_)
+      contact_->set_explicit_path(step.type == StepType::Explicit);
     if (step.type == StepType::Explicit) {
       run_explicit(static_cast<int>(s), observer);
       t = step.end_time;
