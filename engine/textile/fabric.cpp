@@ -34,25 +34,35 @@ Material YarnMaterial::resolve(double area, std::string name) const {
   return m;
 }
 
+namespace {
+
+void check_inertia_factors(double lower, double upper) {
+  if (!(lower > 0 && upper > 0))
+    throw std::invalid_argument(fmt::format(
+        "yarn section: expected reduction factors > 0, found {} (lower inertia) and {} (upper)",
+        lower, upper));
+}
+
+} // namespace
+
 Section ellipse_yarn_section(std::string name, double a, double b, const YarnMaterial& material,
-                             double reduce_lower_inertia, double shear_factor) {
+                             double reduce_lower_inertia, double shear_factor,
+                             double reduce_upper_inertia) {
   if (!(a > 0 && b > 0))
     throw std::invalid_argument(
         fmt::format("yarn section: expected semi-axes > 0, found a = {}, b = {}", a, b));
-  if (!(reduce_lower_inertia > 0))
-    throw std::invalid_argument(fmt::format(
-        "yarn section: expected a reduction factor > 0, found {}", reduce_lower_inertia));
+  check_inertia_factors(reduce_lower_inertia, reduce_upper_inertia);
   const Material m = material.resolve(std::numbers::pi * a * b, name);
   // I1 = pi a b^3 / 4 about axis 1 is the lower one when b <= a.
-  const double r1 = b <= a ? reduce_lower_inertia : 1.0;
-  const double r2 = b <= a ? 1.0 : reduce_lower_inertia;
+  const double r1 = b <= a ? reduce_lower_inertia : reduce_upper_inertia;
+  const double r2 = b <= a ? reduce_upper_inertia : reduce_lower_inertia;
   return section_from_shape(std::move(name), SectionShape::Ellipse, a, b, 2, m, r1, r2,
                             shear_factor);
 }
 
 Section outline_yarn_section(std::string name, const SectionOutline& outline,
                              const YarnMaterial& material, double reduce_lower_inertia,
-                             double shear_factor) {
+                             double shear_factor, double reduce_upper_inertia) {
   const auto& p = outline.points;
   if (p.size() < 3)
     throw std::invalid_argument(
@@ -85,8 +95,9 @@ Section outline_yarn_section(std::string name, const SectionOutline& outline,
     ymax = std::max(ymax, q.y());
   }
   const Material m = material.resolve(A, name);
-  const double r1 = I1 <= I2 ? reduce_lower_inertia : 1.0;
-  const double r2 = I1 <= I2 ? 1.0 : reduce_lower_inertia;
+  check_inertia_factors(reduce_lower_inertia, reduce_upper_inertia);
+  const double r1 = I1 <= I2 ? reduce_lower_inertia : reduce_upper_inertia;
+  const double r2 = I1 <= I2 ? reduce_upper_inertia : reduce_lower_inertia;
   const double J = std::pow(A, 4) / (4 * std::numbers::pi * std::numbers::pi * (I1 + I2));
   Section s;
   s.name = std::move(name);

@@ -56,9 +56,13 @@ struct SectionOutline {
 /// Section of an elliptical yarn of semi-axes a (section axis 1) and b (axis 2). The lower
 /// moment of inertia is multiplied by `reduce_lower_inertia` (the paper's 0.1 for the low bending
 /// stiffness of a yarn of loose fibres): the one about axis 1 when b <= a (also for a circle),
-/// else the one about axis 2.
+/// else the one about axis 2; the upper one by `reduce_upper_inertia`. A bundle of fibres that
+/// slide on each other bends far more easily than a solid of its section, and more so across
+/// its width: the solid's upper inertia of a flat yarn (a / b = 7) is 49 times its lower one.
+/// Throws std::invalid_argument unless a, b > 0 and both factors > 0.
 Section ellipse_yarn_section(std::string name, double a, double b, const YarnMaterial& material,
-                             double reduce_lower_inertia, double shear_factor = 5.0 / 6.0);
+                             double reduce_lower_inertia, double shear_factor = 5.0 / 6.0,
+                             double reduce_upper_inertia = 1.0);
 
 /// Section of a yarn of any outline (lenticular, power ellipse, rectangle): area and moments of
 /// inertia about the centroid from the polygon, torsion from Saint-Venant's J = A^4 / (4 pi^2 Ip)
@@ -66,7 +70,7 @@ Section ellipse_yarn_section(std::string name, double a, double b, const YarnMat
 /// half height (shape Ellipse, a and b): only the stiffness follows the outline.
 Section outline_yarn_section(std::string name, const SectionOutline& outline,
                              const YarnMaterial& material, double reduce_lower_inertia,
-                             double shear_factor = 5.0 / 6.0);
+                             double shear_factor = 5.0 / 6.0, double reduce_upper_inertia = 1.0);
 
 /// Appends a yarn to `fabric`: nodes at `points` (2 n + 1 positions, m, along the centre line,
 /// mid nodes included), n 3-node elements of `section`, each with section axis 1 along

@@ -46,6 +46,7 @@ constexpr KeySpec kFabricKeys[] = {
     {"G", Type::Number, kOptional, kPositive},
     {"density", Type::Number, kRequired, kPositive},
     {"reduce_lower_inertia", Type::Number, kOptional, kUnitHalfOpen},
+    {"reduce_upper_inertia", Type::Number, kOptional, kUnitHalfOpen},
     {"shear_factor", Type::Number, kOptional, kUnitHalfOpen},
     {"elements_per_spacing", Type::Integer, kOptional, kElements},
     // A TexGen file instead of the weave parameters (TexGenOptions, engine/textile/texgen.hpp).
@@ -614,6 +615,7 @@ private:
         ok = false;
     };
     number("reduce_lower_inertia", o.reduce_lower_inertia);
+    number("reduce_upper_inertia", o.reduce_upper_inertia);
     number("shear_factor", o.shear_factor);
     number("contact_radius", o.contact_radius);
     number("length_scale", o.length_scale);
@@ -644,6 +646,7 @@ private:
     if (!ok) {
       o.material = {1.0, 0.0, 0.2, 0.0, 1.0};
       o.reduce_lower_inertia = 0.1;
+      o.reduce_upper_inertia = 1.0;
       o.shear_factor = 5.0 / 6.0;
       o.contact_radius = 0;
       o.length_scale = 0;
@@ -690,6 +693,7 @@ private:
     number("b", p.b);
     number("contact_radius", p.contact_radius);
     number("reduce_lower_inertia", p.reduce_lower_inertia);
+    number("reduce_upper_inertia", p.reduce_upper_inertia);
     number("shear_factor", p.shear_factor);
     p.elements_per_spacing = static_cast<int>(t.integer("elements_per_spacing").value_or(4));
     for (std::string_view k : {"n_warp", "n_weft", "elements_per_spacing"})

@@ -15,9 +15,9 @@ namespace yarnsim::textile {
 /// mid-plane at z = 0.
 struct BiasSpecimenParameters {
   /// The fabric: pattern, spacing_warp, spacing_weft, gap, a, b, contact_radius, material,
-  /// reduce_lower_inertia, shear_factor, elements_per_spacing, contact_law, contact. n_warp,
-  /// n_weft, length_warp and length_weft are ignored: the rectangle decides which yarns there are
-  /// and how long they are.
+  /// reduce_lower_inertia, reduce_upper_inertia, shear_factor, elements_per_spacing, contact_law,
+  /// contact. n_warp, n_weft, length_warp and length_weft are ignored: the rectangle decides which
+  /// yarns there are and how long they are.
   WeaveParameters weave = paper_fabric();
   double height = 0; ///< H, m, at least 2 spacings: length along y (the pull direction)
   /// W, m, at least 2 spacings (the larger of spacing_warp and spacing_weft): along x. The bias

@@ -816,11 +816,12 @@ private:
         (spec.section.type == "CSectionPowerEllipse" && spec.section.power == 1))
       model.sections.push_back(ellipse_yarn_section(
           section_name, spec.section.width * scale_ / 2, spec.section.height * scale_ / 2,
-          options_.material, options_.reduce_lower_inertia, options_.shear_factor));
+          options_.material, options_.reduce_lower_inertia, options_.shear_factor,
+          options_.reduce_upper_inertia));
     else
-      model.sections.push_back(
-          outline_yarn_section(section_name, outline(spec.section), options_.material,
-                               options_.reduce_lower_inertia, options_.shear_factor));
+      model.sections.push_back(outline_yarn_section(
+          section_name, outline(spec.section), options_.material, options_.reduce_lower_inertia,
+          options_.shear_factor, options_.reduce_upper_inertia));
     const double radius =
         options_.contact_radius > 0 ? options_.contact_radius : spec.section.height * scale_ / 2;
 

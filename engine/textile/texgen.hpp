@@ -40,6 +40,7 @@ namespace yarnsim::textile {
 struct TexGenOptions {
   YarnMaterial material;             ///< E or EA, nu or G, density
   double reduce_lower_inertia = 0.1; ///< factor on the lower moment of inertia (paper: 0.1)
+  double reduce_upper_inertia = 1.0; ///< factor on the upper one (ellipse_yarn_section)
   double shear_factor = 5.0 / 6.0;
   int elements_per_interval = 4; ///< 3-node elements between neighbouring master nodes
   /// Periods (along the yarn) or copies (across) per Repeat vector of each yarn, in file order;

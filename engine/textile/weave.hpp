@@ -39,7 +39,9 @@ struct WeaveParameters {
   double contact_radius = 0;
   YarnMaterial material;
   double reduce_lower_inertia = 0.1; ///< factor on the lower moment of inertia (paper: 0.1)
-  double shear_factor = 5.0 / 6.0;   ///< kappa in GA = kappa G A
+  /// Factor on the upper moment of inertia (in-plane bending of a flat yarn; ellipse_yarn_section).
+  double reduce_upper_inertia = 1.0;
+  double shear_factor = 5.0 / 6.0; ///< kappa in GA = kappa G A
   /// 3-node elements per crossing interval (paper 4: 36 elements per yarn of 9 spacings); the
   /// straight ends get as many per spacing, at least one.
   int elements_per_spacing = 4;

@@ -36,8 +36,9 @@ void check_yarn_parameters(const WeaveParameters& p, std::string_view what) {
 
 void add_yarn_section(Model& model, const WeaveParameters& p) {
   model.materials.push_back(p.material.resolve(std::numbers::pi * p.a * p.b, "yarn"));
-  model.sections.push_back(
-      ellipse_yarn_section("yarn", p.a, p.b, p.material, p.reduce_lower_inertia, p.shear_factor));
+  model.sections.push_back(ellipse_yarn_section("yarn", p.a, p.b, p.material,
+                                                p.reduce_lower_inertia, p.shear_factor,
+                                                p.reduce_upper_inertia));
 }
 
 std::vector<ProfilePoint> crimped_profile(double s_start, double s_end,

@@ -261,6 +261,31 @@ TEST(FabricDeck, UnknownKeyIsReportedWithItsLineAndASuggestion) {
                   "'gap'?");
 }
 
+TEST(FabricDeck, UpperInertiaFactorReachesTheYarnSection) {
+  // reduce_upper_inertia scales the upper moment of inertia (about axis 2 here, b < a: the
+  // in-plane bending of the flat yarn) and leaves the lower one and the rest of the section.
+  const Model plain = read_deck_string(kValid, "fabric.toml");
+  const Model reduced = read_deck_string(
+      with("density = 2540.0", "density = 2540.0\nreduce_upper_inertia = 0.01"), "fabric.toml");
+  ASSERT_EQ(plain.sections.size(), 1u);
+  ASSERT_EQ(reduced.sections.size(), 1u);
+  const Section &p = plain.sections[0], &r = reduced.sections[0];
+  EXPECT_DOUBLE_EQ(r.EI2, 0.01 * p.EI2);
+  EXPECT_EQ(r.EI1, p.EI1);
+  EXPECT_EQ(r.EA, p.EA);
+  EXPECT_EQ(r.GJ, p.GJ);
+  // Its range is the lower factor's, (0, 1].
+  for (const char* bad : {"0.0", "1.5"}) {
+    const auto e = errors_of(
+        with("density = 2540.0", std::string("density = 2540.0\nreduce_upper_inertia = ") + bad));
+    ASSERT_EQ(e.size(), 1u) << joined(e);
+    EXPECT_NE(e[0].find("fabric.toml:16:24:"), std::string::npos) << e[0];
+    EXPECT_NE(e[0].find("fabric.reduce_upper_inertia: expected a number in (0, 1]"),
+              std::string::npos)
+        << e[0];
+  }
+}
+
 TEST(FabricDeck, WrongTypesAndValuesAreReportedAllAtOnce) {
   std::string deck = with("n_warp = 3", "n_warp = 3.0");
   deck.replace(deck.find("strain_ratio = 2.0"), 18, "strain_ratio = \"two\"");
