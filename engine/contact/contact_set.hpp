@@ -77,6 +77,16 @@ struct ContactSummary {
   /// Energy dissipated by friction from the start up to this evaluation (the completed
   /// increments' and this iterate's slips), J.
   double dissipation = 0;
+  /// Contact points that carried force in the last converged state and now lie past the end of
+  /// a yarn, closer to its continued centre line (the end segment's polynomial) than the two
+  /// radii: no pair carries them (spline contact: the curve ends, and no neighbouring segment
+  /// takes the point over). A yarn slid off the end of another: at a specimen's free sides that
+  /// is the yarns' ends parting; an edge yarn of a frictionless weave that slides off the
+  /// crossing yarns' ends loses its support (docs/performance.md, "The hand-over at a knot,
+  /// completed"). `off_end_yarns`: the first such point's yarns, indices into Model::splines,
+  /// the one whose end it passed second; -1 when there is none.
+  int off_end = 0;
+  std::array<int, 2> off_end_yarns{-1, -1};
   /// Smallest signed gap over the pairs whose projection converged in range, m; +infinity when
   /// there is none. Before loading it is the clearance the formulation sees.
   double min_gap = 0;

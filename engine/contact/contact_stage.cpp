@@ -112,6 +112,9 @@ ContactSummary ContactStage::summary() const {
     out.twist_slip += s.twist_slip;
     out.torque += s.torque;
     out.frictionless += s.frictionless;
+    if (out.off_end == 0)
+      out.off_end_yarns = s.off_end_yarns;
+    out.off_end += s.off_end;
     out.dissipation += s.dissipation;
     out.min_gap = std::min(out.min_gap, s.min_gap);
     out.active_set = out.active_set * 0x9e3779b97f4a7c15ull + s.active_set;

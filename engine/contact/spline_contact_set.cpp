@@ -846,6 +846,16 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
   summarise();
 }
 
+bool SplineContactSet::past_curve_end(const Definition& d, int id, double xi) const {
+  const contact::SegmentBasis& b = segment_of(d, id);
+  const int n = static_cast<int>(d.spline.size());
+  if (xi < b.begin())
+    return id == 0 || d.spline[id - 1] != d.spline[id];
+  if (xi > b.end())
+    return id + 1 >= n || d.spline[id + 1] != d.spline[id];
+  return false;
+}
+
 void SplineContactSet::summarise() {
   summary_ = {};
   summary_.candidates = static_cast<int>(work_.size());
@@ -854,6 +864,19 @@ void SplineContactSet::summarise() {
     const auto& r = w.result;
     if (r.status == contact::ProjectionStatus::Converged)
       summary_.min_gap = std::min(summary_.min_gap, r.gap);
+    if (r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0 && w.warm >= 0 &&
+        static_cast<std::size_t>(w.warm) < committed_.size() &&
+        committed_[static_cast<std::size_t>(w.warm)].active) {
+      const Definition& d = *definitions_[w.definition];
+      const bool past_a = past_curve_end(d, w.pair.first, r.xi_A);
+      if (past_a || past_curve_end(d, w.pair.second, r.xi_B)) {
+        if (summary_.off_end == 0) {
+          const int a = d.spline[w.pair.first], b = d.spline[w.pair.second];
+          summary_.off_end_yarns = past_a ? std::array<int, 2>{b, a} : std::array<int, 2>{a, b};
+        }
+        ++summary_.off_end;
+      }
+    }
     if (!r.active)
       continue;
     ++summary_.active;

@@ -183,6 +183,9 @@ private:
   void assign_line_histories();
   /// The contact spline's segment of segment id `id` of definition `d`.
   const contact::SegmentBasis& segment_of(const Definition& d, int id) const;
+  /// Whether the global parameter xi lies before the first segment or after the last segment of
+  /// the spline of segment `id` (past the curve's end, where no neighbour takes a point over).
+  bool past_curve_end(const Definition& d, int id, double xi) const;
   /// The definition's all-angle options for a pair of contact radii ra, rb (m): the line scale
   /// is its line_penalty / penalty, or 1 / (ra + rb).
   contact::AllAngleOptions all_angle_of(const Definition& d, double ra, double rb) const;

@@ -1102,6 +1102,20 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
   load_n_ = load;
 }
 
+std::string Simulation::off_end_text(const ContactSummary& s) const {
+  if (s.off_end == 0)
+    return {};
+  const auto name = [&](int k) {
+    return k >= 0 && k < static_cast<int>(model_.splines.size()) ? model_.splines[k].name
+                                                                 : std::string("?");
+  };
+  return fmt::format("; {} contact point(s) that carried force in the last converged state have "
+                     "passed the end of a yarn, closer to its continued centre line than the two "
+                     "radii, and carry none now (the first: '{}' past the end of '{}'): a yarn "
+                     "slid off the end of another",
+                     s.off_end, name(s.off_end_yarns[0]), name(s.off_end_yarns[1]));
+}
+
 void Simulation::run(SimulationObserver* observer) {
   double t = state_.time;
   // From the first step, or from where a checkpoint left off.
@@ -1135,6 +1149,8 @@ void Simulation::run(SimulationObserver* observer) {
         throw;
       }
       if (!why.empty()) {
+        if (contact_)
+          why += off_end_text(contact_->summary());
         // Restore the converged state and halve; the candidates the failed attempt met go with it.
         state_.x = state_.x_n;
         state_.alpha.setZero();
@@ -1165,6 +1181,11 @@ void Simulation::run(SimulationObserver* observer) {
                         "no friction there; `line_contact = true` gives the spline contact "
                         "friction at every point (said once)",
                         s + 1, t + h, contact_->summary().frictionless));
+      }
+      if (contact_ && !off_end_reported_ && observer && contact_->summary().off_end > 0) {
+        off_end_reported_ = true;
+        observer->on_notice(*this, fmt::format("step {}, t = {:.6g} s{} (said once)", s + 1, t + h,
+                                               off_end_text(contact_->summary())));
       }
       if (report.at_floor && !floor_reported_ && observer) {
         floor_reported_ = true;

@@ -145,6 +145,10 @@ public:
   /// (checkpoint.cpp): run() then goes on bit for bit as the earlier run would have. Throws
   /// std::invalid_argument when the checkpoint does not fit the model.
   Simulation(const Model& model, SimulationOptions options, const SimulationCheckpoint& from);
+  /// The simulation keeps a reference to its model, which must outlive it: a temporary would be
+  /// gone after the constructor (tables of prescribed motions read from freed memory).
+  Simulation(Model&&, SimulationOptions = {}) = delete;
+  Simulation(Model&&, SimulationOptions, const SimulationCheckpoint&) = delete;
   ~Simulation();
 
   /// Everything the run carries to its next increment; taken between increments (from
@@ -205,6 +209,10 @@ private:
     const std::array<TimeTable, 3>* tables;
   };
 
+  /// "" when `s.off_end` is 0; else "; N contact point(s) ... have passed the end of a yarn ...",
+  /// naming the first point's yarns: what a failed attempt's reason and the notice after an
+  /// increment add.
+  std::string off_end_text(const ContactSummary& s) const;
   /// Tries one increment from the converged state to time t_new. Returns an empty string on
   /// success, otherwise why it failed (the state is then restored).
   std::string attempt(const SolutionStep& step, double t_new, double dt, IncrementReport& report);
@@ -277,6 +285,7 @@ private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> load_n_; ///< external loads at the last converged time
   bool floor_reported_ = false;                     ///< the round-off floor notice was given
   bool frictionless_reported_ = false; ///< the notice of points without friction was given
+  bool off_end_reported_ = false;      ///< the notice of points past a yarn's end was given
   Eigen::VectorXd damping_velocity_;   ///< 6 n_nodes, stiffness damping's velocities
   Eigen::Matrix3Xd contact_velocity_;  ///< 3 x n_nodes, m/s: the iterate's, for contact damping
   /// 3 x n_nodes, rad/s: the iterate's spatial angular velocities, for surface contact damping.
