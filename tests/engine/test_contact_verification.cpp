@@ -6,6 +6,7 @@
 #include "engine/contact/spline_contact_set.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/solver/simulation.hpp"
+#include "notices.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -508,10 +509,7 @@ dt = 0.05
                           "slide.toml");
 }
 
-struct Notices : SimulationObserver {
-  std::vector<std::string> said;
-  void on_notice(const Simulation&, const std::string& what) override { said.push_back(what); }
-};
+using test::Notices;
 
 TEST(ContactVerification, AYarnThatSlidesOffTheEndOfAnotherIsSaidOnce) {
   // The crossing carries the press until it reaches the bottom's end (x = 0 at t = 0.47 s); one

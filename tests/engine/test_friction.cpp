@@ -9,6 +9,7 @@
 #include "drag_recorder.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/solver/simulation.hpp"
+#include "notices.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -443,14 +444,10 @@ dt = 0.25
 dt_max = 0.25
 )";
   };
-  struct Notices : SimulationObserver {
-    std::vector<std::string> said;
-    void on_notice(const Simulation&, const std::string& what) override { said.push_back(what); }
-  };
   for (const bool line_contact : {false, true}) {
     const Model m = read_deck_string(deck(line_contact), "parallel.toml");
     Simulation sim(m);
-    Notices notices;
+    test::Notices notices;
     sim.run(&notices);
     ASSERT_GT(sim.contact()->summary().active, 0);
     std::size_t frictionless = 0;

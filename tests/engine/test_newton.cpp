@@ -7,6 +7,7 @@
 #include "engine/contact/contact_stage.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/solver/simulation.hpp"
+#include "notices.hpp"
 
 #include <filesystem>
 #include <fmt/format.h>
@@ -70,10 +71,7 @@ Model slender_rollup(double tolerance) {
                      fmt::format("tolerance = {{ force = {0}, increment = {0} }}", tolerance));
 }
 
-struct Notices : SimulationObserver {
-  std::vector<std::string> said;
-  void on_notice(const Simulation&, const std::string& what) override { said.push_back(what); }
-};
+using test::Notices;
 
 TEST(Newton, ToleranceAboveTheRoundOffLevelIsHonouredWithoutANote) {
   // Before the floors were measured, 1e-12 EA (size / element) lay above 1e-4 on this rod: the
