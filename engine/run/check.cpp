@@ -131,6 +131,17 @@ std::string check_report(const Model& model) {
   out += fmt::format("sections: {}, node sets: {}, splines: {}, surfaces: {}, monitors: {}\n",
                      model.sections.size(), model.node_sets.size(), model.splines.size(),
                      model.surfaces.size(), model.monitors.size());
+  // The sections' stiffnesses (the first few): what reduce_lower_inertia and reduce_upper_inertia
+  // of a fabric deck made of them.
+  constexpr std::size_t kSectionsListed = 4;
+  for (std::size_t k = 0; k < std::min(model.sections.size(), kSectionsListed); ++k) {
+    const Section& s = model.sections[k];
+    out += fmt::format("  section '{}': EA {:.4g} N, EI1 {:.4g} N m^2 (about axis 1), EI2 {:.4g} N "
+                       "m^2 (about axis 2), GJ {:.4g} N m^2\n",
+                       s.name, s.EA, s.EI1, s.EI2, s.GJ);
+  }
+  if (model.sections.size() > kSectionsListed)
+    out += fmt::format("  ... and {} more sections\n", model.sections.size() - kSectionsListed);
   out += fmt::format("contact definitions: {}\n",
                      model.spline_contacts.size() + model.surface_contacts.size());
   for (const SplineContactDefinition& c : model.spline_contacts) {
