@@ -1,7 +1,5 @@
 #include "contact/friction.hpp"
 
-#include "contact/projection_jet.hpp"
-
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -36,27 +34,6 @@ void add_identity_blocks(Mat3x18& m, const Vec6& c, double s) {
       m(d, 3 * k + d) += s * c(k);
     }
   }
-}
-
-/// sum_k f_k d2(g_t,k)/dx2, 18 x 18, N/m: the elastic gap g_t = Delta_A C_A,u(u_A) -
-/// Delta_B C_B,u(u_B) (local parameters, Delta = u - u^s, the anchor held) contracted with the
-/// force f (held), through the closest points' second-order jets (projection_jet.hpp): the
-/// curvature of the projection enters through d2u/dx2.
-Eigen::Matrix<double, 18, 18> gap_hessian_along(const Matrix3d& control_A,
-                                                const SegmentBasis& basis_A, double ua,
-                                                double delta_a, const Matrix3d& control_B,
-                                                const SegmentBasis& basis_B, double ub,
-                                                double delta_b, const Vector3d& f) {
-  Jet jua, jub;
-  closest_point_jets(control_A, basis_A, ua, control_B, basis_B, ub, jua, jub);
-  const Jet3T<18> ta = jet_tangent(control_A, basis_A, 0, jua);
-  const Jet3T<18> tb = jet_tangent(control_B, basis_B, 3, jub);
-  const Jet fa = f(0) * ta.c[0] + f(1) * ta.c[1] + f(2) * ta.c[2];
-  const Jet fb = f(0) * tb.c[0] + f(1) * tb.c[1] + f(2) * tb.c[2];
-  Jet da = jua, db = jub; // Delta_A, Delta_B: u less the anchor's (constant) parameter
-  da.v = delta_a;
-  db.v = delta_b;
-  return (da * fa - db * fb).h;
 }
 
 } // namespace
@@ -102,6 +79,10 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
     return;
   }
   const bool conjugate = options.force == FrictionForce::ConjugateToTheGap;
+  if (conjugate && options.compute_tangent)
+    throw std::invalid_argument(
+        "spline_friction: the force conjugate to the gap is the explicit path's, which needs no "
+        "tangent; ask for it with compute_tangent = false");
   if ((options.compute_tangent || conjugate) && (sensitivity == nullptr || !sensitivity->valid)) {
     throw std::invalid_argument(
         std::string("spline_friction: ") +
@@ -232,18 +213,11 @@ void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
     df.noalias() -= law.c_t() * dvt;
   }
 
-  if (conjugate) {
-    // residual = (dg_t/dx)^T f: tangent = (dg_t/dx)^T df/dx + sum_k f_k d2(g_t,k)/dx2.
-    out.tangent.noalias() = dgt.transpose() * df;
-    out.tangent +=
-        gap_hessian_along(control_A, basis_A, ua, delta_a, control_B, basis_B, ub, delta_b, force);
-  } else {
-    // residual = -kron(w, f): tangent = -kron(wa, f) du_a^T - kron(wb, f) du_b^T - kron(w, df).
-    for (int k = 0; k < 6; ++k) {
-      out.tangent.block<3, 18>(3 * k, 0).noalias() =
-          -(wa(k) * force) * du_a.transpose() - (wb(k) * force) * du_b.transpose();
-      out.tangent.block<3, 18>(3 * k, 0).noalias() -= w(k) * df;
-    }
+  // residual = -kron(w, f): tangent = -kron(wa, f) du_a^T - kron(wb, f) du_b^T - kron(w, df).
+  for (int k = 0; k < 6; ++k) {
+    out.tangent.block<3, 18>(3 * k, 0).noalias() =
+        -(wa(k) * force) * du_a.transpose() - (wb(k) * force) * du_b.transpose();
+    out.tangent.block<3, 18>(3 * k, 0).noalias() -= w(k) * df;
   }
   if (blended) {
     out.tangent *= s;

@@ -182,7 +182,7 @@ enum class FrictionForce {
   /// no resultant and no moment. It carries the couple by translations through the turning of
   /// the normal, which a yarn without bending stiffness wrapped over a crossing yarn cannot take
   /// (tests/engine/test_capstan.cpp: Newton stalls). The explicit path's, whose energy balance
-  /// needs it (formulation.md, "Friction on the explicit path").
+  /// needs it (formulation.md, "Friction on the explicit path"); residual only (no tangent).
   ConjugateToTheGap,
 };
 
@@ -231,7 +231,8 @@ struct SplineFrictionResult {
 /// `contact`: the result of spline_contact for the same positions (and the same `rates`, if the
 /// normal law damps). `sensitivity` is the SplineContactSensitivity spline_contact wrote for it:
 /// the tangent needs its dxi/dx, and so does the residual conjugate to the gap (nullptr is
-/// allowed for the point forces' residual alone). `history` is held fixed: the caller commits
+/// allowed for the point forces' residual alone). The force conjugate to the gap is residual
+/// only: the explicit path's (FrictionForce). `history` is held fixed: the caller commits
 /// `out.history` with a converged increment. `rates` (optional) feeds the tangential damping.
 ///
 /// With `du/dx = dxi/dx / h` (local u) from the projection and G_a = kron(N_A'^T, I3) (likewise
@@ -240,14 +241,11 @@ struct SplineFrictionResult {
 ///             + (-C_B,u - Delta_B C_B,uu) du_B/dx,   Delta = u - u^s (local parameters),
 ///   stick: df/dx = eps_t dg_t/dx,
 ///   slip:  df/dx = mu t (df_n/dx)^T + mu f_n / |g_t| (I - t t^T) dg_t/dx,   t = g_t / |g_t|,
-///   at the contact points: tangent = -kron(w', f) du/dx - kron(w, I3) df/dx (w' = dw/du_A,
-///                          dw/du_B),
-///   conjugate to the gap:  tangent = (dg_t/dx)^T df/dx + sum_k f_k d2(g_t,k)/dx2, the last term
-///                          through the projection's second derivatives d2u/dx2 (second-order
-///                          jets, projection_jet.hpp).
-/// Throws std::invalid_argument if the contact is an active regular point, the tangent or the
-/// conjugate residual is asked for, and `sensitivity` is null or not valid for it. Writes into
-/// `out`; never allocates.
+///   tangent = -kron(w', f) du/dx - kron(w, I3) df/dx   (w' = dw/du_A, dw/du_B),
+///   conjugate to the gap: residual = (dg_t/dx)^T f.
+/// Throws std::invalid_argument if the tangent is asked for with the force conjugate to the gap,
+/// or if the contact is an active regular point, the tangent or the conjugate residual is asked
+/// for, and `sensitivity` is null or not valid for it. Writes into `out`; never allocates.
 void spline_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
                      const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B,
                      const SplineContactResult& contact,

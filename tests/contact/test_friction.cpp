@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <limits>
 #include <memory>
@@ -31,7 +32,8 @@ struct Evaluation {
   SplineFrictionResult friction;
 };
 
-/// spline_contact then spline_friction at fixed `history`, with the default options. Unlike the
+/// spline_contact then spline_friction at fixed `history`, with the default options (the force
+/// conjugate to the gap residual only: it has no tangent). Unlike the
 /// normal force, which is stationary in the parameters, the friction force depends on them at
 /// first order, so the projection's accuracy enters the finite differences below directly (a
 /// parameter error of 1e-13 would show as 1e-13 kL / h ~ 1e-7): the projection's last step is a
@@ -47,6 +49,7 @@ Evaluation evaluate(const Pair& p, const InterfaceLaw& law, const CoulombFrictio
                  &e.sensitivity);
   FrictionOptions friction_options;
   friction_options.force = force;
+  friction_options.compute_tangent = force == FrictionForce::AtContactPoints;
   spline_friction(p.xa, *p.ba, p.xb, *p.bb, e.contact, &e.sensitivity, history, friction,
                   e.friction, friction_options, rates);
   return e;
@@ -74,14 +77,13 @@ Anchored anchored(const Pair& p, const SplineContactResult& c, double da, double
 /// residual, at fixed history; the perturbed projections are warm-started from the base one,
 /// as in a Newton iteration. Also checks that the state (stick or slip) does not switch.
 double tangent_error(const Pair& base, const InterfaceLaw& law, const CoulombFriction& friction,
-                     const FrictionHistory& history, const PairRates* rates = nullptr,
-                     FrictionForce force = FrictionForce::AtContactPoints) {
-  const Evaluation e0 = evaluate(base, law, friction, history, {}, rates, force);
+                     const FrictionHistory& history, const PairRates* rates = nullptr) {
+  const Evaluation e0 = evaluate(base, law, friction, history, {}, rates);
   EXPECT_EQ(e0.contact.status, ProjectionStatus::Converged);
   EXPECT_TRUE(e0.friction.active);
   const ProjectionStart warm{e0.contact.xi_A, e0.contact.xi_B, true};
   const Mat18 fd = central_differences(base, rates, [&](const Pair& p, const PairRates* moved) {
-    const Evaluation e = evaluate(p, law, friction, history, warm, moved, force);
+    const Evaluation e = evaluate(p, law, friction, history, warm, moved);
     EXPECT_EQ(e.contact.status, ProjectionStatus::Converged);
     EXPECT_EQ(e.friction.slipping, e0.friction.slipping);
     return e.friction.residual;
@@ -249,15 +251,10 @@ TEST(SplineFriction, TangentMatchesCentralDifferencesInStickAndSlip) {
     }
     ++count[slip][across];
     ++tested;
-    // Both ways of carrying the force to the positions (FrictionForce).
-    for (const FrictionForce force :
-         {FrictionForce::AtContactPoints, FrictionForce::ConjugateToTheGap}) {
-      const double error = tangent_error(p, law, friction, s.history, r, force);
-      worst[slip][with_damping] = std::max(worst[slip][with_damping], error);
-      EXPECT_LT(error, 1e-6) << "configuration " << tested << (slip ? " slip" : " stick")
-                             << (across ? ", anchor across a knot" : "")
-                             << (force == FrictionForce::ConjugateToTheGap ? ", conjugate" : "");
-    }
+    const double error = tangent_error(p, law, friction, s.history, r);
+    worst[slip][with_damping] = std::max(worst[slip][with_damping], error);
+    EXPECT_LT(error, 1e-6) << "configuration " << tested << (slip ? " slip" : " stick")
+                           << (across ? ", anchor across a knot" : "");
   }
   for (const auto& row : count) {
     for (const int n : row) {
@@ -622,6 +619,12 @@ TEST(SplineFriction, TangentAndConjugateForceNeedTheNormalContactSensitivity) {
   residual_only.compute_tangent = false;
   FrictionOptions conjugate_residual = residual_only;
   conjugate_residual.force = FrictionForce::ConjugateToTheGap;
+  // The conjugate force has no tangent (the explicit path's).
+  FrictionOptions conjugate_tangent;
+  conjugate_tangent.force = FrictionForce::ConjugateToTheGap;
+  EXPECT_THROW(spline_friction(p.xa, *p.ba, p.xb, *p.bb, c, &sensitivity, history, friction, out,
+                               conjugate_tangent),
+               std::invalid_argument);
   for (const FrictionOptions& options : {FrictionOptions{}, conjugate_residual}) {
     EXPECT_THROW(
         spline_friction(p.xa, *p.ba, p.xb, *p.bb, c, nullptr, history, friction, out, options),
@@ -714,7 +717,10 @@ TEST(SplineFriction, StickForceConjugateToTheGapIsTheGradientOfTheStoredEnergy) 
                              e0.friction.residual.cwiseAbs().maxCoeff();
         worst = std::max(worst, error);
       });
-  EXPECT_LT(worst, 1e-5);
+  std::printf("stick force conjugate to the gap against the energy's central differences: worst "
+              "%.2e relative\n",
+              worst);
+  EXPECT_LT(worst, 1e-8); // measured 6.1e-10; the point forces: 0.87
 }
 
 // The friction forces conjugate to the gap are internal to the pair: they sum to zero, and so do
