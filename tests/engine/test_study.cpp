@@ -326,8 +326,9 @@ TEST_F(ShearAndUniaxialStudy, LongFormatCurvesHoldEveryRowOfEachRunWithTheTestsC
         EXPECT_EQ(all.rows[r][c], expected) << e.file << " row " << r + 1 << ", " << header[c];
       }
     }
-    if (e.test == StudyTest::Uniaxial)
+    if (e.test == StudyTest::Uniaxial) {
       EXPECT_EQ(all.rows[0][3], "warp");
+    }
   }
   // The uniaxial summary: the pulled direction's strain at the end, the free one contracted.
   const Csv summary = read_csv(out("summary-uniaxial.csv"));
