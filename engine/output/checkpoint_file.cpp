@@ -550,6 +550,12 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
     write_table(g, "gauss_kappa", gauss_kappa, 3);
     write_columns<6>(g, "reactions", c.reactions);
     write_columns<6>(g, "load_n", c.load_n);
+    // The secant predictor's last increment, where a step has used it.
+    if (c.secant_step >= 0) {
+      write_columns<3>(g, "secant_motion", c.secant_motion);
+      h5::write_double_attribute(g, "secant_dt", c.secant_dt);
+      h5::write_int_attribute(g, "secant_step", c.secant_step);
+    }
     state.close();
 
     h5::Handle pattern = h5::create_group(root, "pattern");
@@ -647,6 +653,12 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
                                        Eigen::Map<const Eigen::Vector3d>(&gauss_kappa[3 * k])};
   c.reactions = read_columns<6>(g, "reactions", n);
   c.load_n = read_columns<6>(g, "load_n", n);
+  // Written by versions with the secant predictor, where a step used it.
+  if (h5::exists(g, "secant_motion")) {
+    c.secant_motion = read_columns<3>(g, "secant_motion", n);
+    c.secant_dt = h5::read_double_attribute(g, "secant_dt");
+    c.secant_step = h5::read_int_attribute(g, "secant_step");
+  }
   s.x = s.x_n;
   s.alpha = Eigen::Matrix3Xd::Zero(3, n);
 

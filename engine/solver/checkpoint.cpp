@@ -34,6 +34,9 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.damping_work = damping_work_;
   c.energy_reference = energy_reference_;
   c.total_iterations = total_iterations_;
+  c.secant_motion = secant_motion_;
+  c.secant_dt = secant_dt_;
+  c.secant_step = secant_step_;
   c.explicit_status = explicit_status_;
   if (explicit_)
     c.explicit_progress = explicit_progress();
@@ -94,6 +97,13 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   damping_work_ = from.damping_work;
   energy_reference_ = from.energy_reference;
   total_iterations_ = from.total_iterations;
+  if (from.secant_step >= 0 && from.secant_motion.cols() != n)
+    throw std::invalid_argument(fmt::format("checkpoint: the secant predictor's motion has {} "
+                                            "columns, the model has {} nodes",
+                                            from.secant_motion.cols(), n));
+  secant_motion_ = from.secant_motion;
+  secant_dt_ = from.secant_dt;
+  secant_step_ = from.secant_step;
   explicit_status_ = from.explicit_status;
   if (from.explicit_progress)
     resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);

@@ -48,6 +48,12 @@ struct SimulationCheckpoint {
   double external_work = 0, prescribed_work = 0, damping_work = 0; ///< J
   double energy_reference = 0;                                     ///< J
   int total_iterations = 0;
+  /// The secant predictor's last increment (SolutionStep::secant_predictor): every node's
+  /// motion (3 x n_nodes, m), the increment's size (s) and its step's index; -1 and empty when
+  /// no step of the run has used it yet.
+  Eigen::Matrix3Xd secant_motion;
+  double secant_dt = 0;
+  int secant_step = -1;
   ExplicitStatus explicit_status;
   std::optional<ExplicitProgress> explicit_progress; ///< when stopped inside an explicit step
   std::optional<SplineContactSet::Snapshot> contact; ///< when the model has spline contact

@@ -557,7 +557,20 @@ void Simulation::predict(double t_new, double dt) {
   // motion on was measured and dropped: docs/performance.md.)
   state_.x = state_.x_n;
   state_.alpha.setZero();
-  if (!options_.kinematic_predictor) {
+  // The secant predictor: the free translations move on by the last converged increment's
+  // motion of this step, scaled to this increment's size (its first increment has none).
+  const SolutionStep& step = model_.steps[static_cast<std::size_t>(step_)];
+  const bool carry = step.secant_predictor && secant_step_ == step_ && secant_dt_ > 0 &&
+                     secant_motion_.cols() == state_.n_nodes();
+  if (carry) {
+    const std::vector<int>& eq = assembler_->equations();
+    const double ratio = dt / secant_dt_;
+    for (int i = 0; i < state_.n_nodes(); ++i)
+      for (int c = 0; c < 3; ++c)
+        if (eq[6 * i + c] >= 0)
+          state_.x(c, i) += ratio * secant_motion_(c, i);
+  }
+  if (!options_.kinematic_predictor || carry) {
     apply_prescribed(t_new);
     return;
   }
@@ -1027,6 +1040,11 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
   // External work by the trapezoidal rule, with the loads before the nodes are updated.
   const Eigen::Matrix<double, 6, Eigen::Dynamic> load = external_loads(t_new);
   const std::vector<BeamReference>& refs = assembler_->references();
+  if (step.secant_predictor) {
+    secant_motion_ = state_.x - state_.x_n;
+    secant_dt_ = dt;
+    secant_step_ = step_;
+  }
   tbb::parallel_for(std::size_t{0}, state_.gauss.size(), [&](std::size_t e) {
     state_.gauss[e] = beam_committed_history(refs[e], state_.gauss[e],
                                              assembler_->nodal_values(state_, static_cast<int>(e)));

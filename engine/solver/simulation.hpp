@@ -249,7 +249,8 @@ private:
   /// The explicit integrator's state while an explicit step runs (central_difference.cpp).
   ExplicitProgress explicit_progress() const;
   void apply_prescribed(double t_new);
-  /// The predictor of an increment from t_new - dt to t_new: the converged state, moved with a
+  /// The predictor of an increment from t_new - dt to t_new: the converged state, moved on by the
+  /// last increment's motion where the step asks (SolutionStep::secant_predictor), or else with a
   /// picture frame's map or a frictionless tension test's stretch of its pulled yarns where the
   /// model has one (SimulationOptions::kinematic_predictor), then the prescribed values at t_new.
   void predict(double t_new, double dt);
@@ -294,6 +295,11 @@ private:
   /// The closing limit's buffers (attempt), kept for their capacity: the correction's nodal
   /// translations and the predictor's motion from the converged state (3 x n_nodes, m).
   Eigen::Matrix3Xd correction_motion_, predictor_motion_;
+  /// The secant predictor's (SolutionStep::secant_predictor): the last converged increment's
+  /// motion of every node (3 x n, m), its size (s) and its step's index (-1: none yet).
+  Eigen::Matrix3Xd secant_motion_;
+  double secant_dt_ = 0;
+  int secant_step_ = -1;
   /// commit()'s per-node energy terms (3 x n_nodes, J), kept for their capacity.
   Eigen::Matrix3Xd commit_terms_;
   Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1

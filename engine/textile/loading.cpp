@@ -49,6 +49,7 @@ SolutionStep loading_step(const LoadingParameters& p, double t0, std::string_vie
     step.tol_increment = p.tol_increment;
     step.newmark_beta = p.newmark_beta;
     step.newmark_gamma = p.newmark_gamma;
+    step.secant_predictor = p.secant_predictor;
     step.output_every = p.output_every;
   } else {
     throw std::invalid_argument(

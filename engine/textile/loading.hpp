@@ -46,8 +46,10 @@ struct LoadingParameters {
   double tol_increment = 1e-4;
   double newmark_beta = 0.3;  ///< the paper's
   double newmark_gamma = 0.5; ///< the paper's
-  int output_every = 1;       ///< implicit steps
-  ExplicitLoading explicit_;  ///< explicit steps
+  /// Implicit steps: SolutionStep::secant_predictor (the bias extension's default).
+  bool secant_predictor = false;
+  int output_every = 1;      ///< implicit steps
+  ExplicitLoading explicit_; ///< explicit steps
   /// Rayleigh damping C = rayleigh_mass M + rayleigh_stiffness K (1/s, s) of dynamic and
   /// explicit steps. rayleigh_mass < 0 (the tension tests' default): kStabilisingDamping on
   /// dynamic steps, 0 on explicit ones; the shear tests default to 0 (shear_tests.hpp).

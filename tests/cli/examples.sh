@@ -29,12 +29,9 @@ for deck in "$repo"/examples/*.toml; do
   extra=(); expect=0
   if [ "$name" = picture-frame ]; then extra=(--stop-after 40); expect=130; fi
   if [ "$name" = picture-frame-twintex ]; then extra=(--stop-after 10); expect=130; fi
-  # The frictional bias extension (about 8 minutes on two threads): the compaction and the start of
+  # The frictional bias extension (about a minute on two threads): the compaction and the start of
   # the pull; the whole run is in docs/verification.md, "Bias extension".
   if [ "$name" = bias-extension-twintex-friction ]; then extra=(--stop-after 80); expect=130; fi
-  # The frictionless one likewise (about 2.5 minutes on two threads, its yarns sliding along each
-  # other): the compaction and the start of the pull; whole in scripts/bench.
-  if [ "$name" = bias-extension-twintex ]; then extra=(--stop-after 80); expect=130; fi
   if [ "$sanitized" -eq 1 ]; then extra=(--stop-after 20); expect=130; fi
   "$yarnsim" run "$deck" -o "$work/$name" -q --threads 2 "${extra[@]}" > "$work/$name.log" 2>&1
   status=$?

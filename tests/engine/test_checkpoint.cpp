@@ -262,6 +262,37 @@ TEST_F(Checkpoint, PictureFrameWithFrictionGoesOnBitForBit) {
   }
 }
 
+TEST_F(Checkpoint, BiasExtensionWithTheSecantPredictorGoesOnBitForBit) {
+  // examples/bias-extension-twintex-friction.toml cut to a 20 x 50 mm specimen: its steps take
+  // the secant predictor (SolutionStep::secant_predictor), which carries the last increment's
+  // motion into the next. Restarted through the file from the middle of the pull, and from the
+  // first increment of the pull (whose last increment is the compaction's, of another step).
+  Model m = example("bias-extension-twintex-friction.toml",
+                    {{"width", "20e-3"}, {"height", "50e-3"}, {"max_angle", "20.0"}});
+  ASSERT_EQ(m.steps.size(), 2u);
+  ASSERT_TRUE(m.steps[0].secant_predictor && m.steps[1].secant_predictor);
+  const double pull_start = m.steps[0].end_time;
+  m.steps.back().end_time = pull_start + 0.12;
+  Recorder straight;
+  Simulation(m).run(&straight);
+  std::size_t first_pull = 0;
+  while (straight.increments[first_pull].time <= pull_start + 1e-12)
+    ++first_pull;
+  ASSERT_GE(straight.increments.size(), first_pull + 6);
+  ASSERT_EQ(straight.checkpoints[first_pull].secant_step, 1);
+  for (const std::size_t k :
+       {first_pull - 1, first_pull, (first_pull + straight.increments.size()) / 2}) {
+    SCOPED_TRACE("from increment " + std::to_string(k + 1));
+    output::write_checkpoint(dir, straight.checkpoints[k],
+                             {static_cast<int>(k), {{"curves.csv", 7}}, "bias"});
+    const output::StoredCheckpoint stored = output::read_checkpoint(dir);
+    EXPECT_TRUE(same_bits(stored.simulation.secant_motion, straight.checkpoints[k].secant_motion));
+    Recorder restarted;
+    Simulation(m, {}, stored.simulation).run(&restarted);
+    expect_same_continuation(straight, k, restarted);
+  }
+}
+
 TEST_F(Checkpoint, SurfaceContactFabricThroughTheFileGoesOnBitForBit) {
   // A 3 x 3 plain weave with surface contact pulled dynamically (examples/biaxial-surface-k1.toml
   // made small). A broad-phase margin of 20 um, against end displacements of 27 um, makes the

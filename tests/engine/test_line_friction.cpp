@@ -144,8 +144,9 @@ TEST(LineFriction, SideBySideYarnsFollowTheExactStickSlipCycle) {
     // Every Gauss point of the slider (7 segments x 5) in one state; where the trial ends on the
     // cone (a corner of the cycle), round-off decides.
     EXPECT_EQ(s.contact.stick + s.contact.slip, 35) << "t = " << s.time;
-    if (std::abs(std::abs(trial) - mu * normal) > 1e-9 * mu * normal)
+    if (std::abs(std::abs(trial) - mu * normal) > 1e-9 * mu * normal) {
       EXPECT_EQ(s.contact.slip, slips ? 35 : 0) << "t = " << s.time;
+    }
     (slips ? slipping : stuck) += 1;
     if (s.time >= 2.0 + 1e-12)
       loop += 0.5 * (samples[k - 1].force + s.force) * (s.u - samples[k - 1].u);

@@ -54,8 +54,9 @@ TEST(LinearSolver, EverySolverTakesAnEmptySystem) {
     const Eigen::VectorXd x = solve_with(kind, empty, Eigen::VectorXd(0));
     EXPECT_EQ(x.size(), 0);
   }
-  if (mumps_available())
+  if (mumps_available()) {
     EXPECT_EQ(solve_with(LinearSolverKind::MUMPS, empty, Eigen::VectorXd(0)).size(), 0);
+  }
 }
 
 TEST(LinearSolver, LUAndLDLTGmresSolveTheFullNonSymmetricSystem) {
