@@ -554,7 +554,8 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
 
 void Simulation::predict(double t_new, double dt) {
   // The converged state, then the prescribed values at t_new. (Carrying the last increment's
-  // motion on was measured and dropped: docs/performance.md.)
+  // motion on helps some decks and costs others: docs/performance.md, "The secant predictor";
+  // the steps that ask for it take it.)
   state_.x = state_.x_n;
   state_.alpha.setZero();
   // The secant predictor: the free translations move on by the last converged increment's
