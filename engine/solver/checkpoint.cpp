@@ -97,10 +97,11 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   damping_work_ = from.damping_work;
   energy_reference_ = from.energy_reference;
   total_iterations_ = from.total_iterations;
-  if (from.secant_step >= 0 && from.secant_motion.cols() != n)
+  if (from.secant_step >= 0 && (from.secant_motion.cols() != n || !(from.secant_dt > 0)))
     throw std::invalid_argument(fmt::format("checkpoint: the secant predictor's motion has {} "
-                                            "columns, the model has {} nodes",
-                                            from.secant_motion.cols(), n));
+                                            "columns over {} s, expected {} (the model's nodes) "
+                                            "over a time > 0",
+                                            from.secant_motion.cols(), from.secant_dt, n));
   secant_motion_ = from.secant_motion;
   secant_dt_ = from.secant_dt;
   secant_step_ = from.secant_step;

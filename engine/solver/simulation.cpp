@@ -561,8 +561,7 @@ void Simulation::predict(double t_new, double dt) {
   // The secant predictor: the free translations move on by the last converged increment's
   // motion of this step, scaled to this increment's size (its first increment has none).
   const SolutionStep& step = model_.steps[static_cast<std::size_t>(step_)];
-  const bool carry = step.secant_predictor && secant_step_ == step_ && secant_dt_ > 0 &&
-                     secant_motion_.cols() == state_.n_nodes();
+  const bool carry = step.secant_predictor && secant_step_ == step_;
   if (carry) {
     const std::vector<int>& eq = assembler_->equations();
     const double ratio = dt / secant_dt_;

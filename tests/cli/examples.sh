@@ -3,6 +3,7 @@
 # Usage: examples.sh YARNSIM REPO WORKDIR
 set -u
 yarnsim="$1"; repo="$2"; work="$3"
+source "$(dirname "${BASH_SOURCE[0]}")/lib/results.sh"
 rm -rf "$work"; mkdir -p "$work"
 fail=0
 # Built with AddressSanitizer (scripts/test --sanitize) every deck runs its first 20 increments
@@ -10,7 +11,7 @@ fail=0
 # increments take; the Release suite runs each deck as below. Whole, the frictionless bias
 # extension alone (48 s in Release) took most of this test's time under the sanitizers.
 sanitized=0
-if ldd "$yarnsim" 2> /dev/null | grep -q libasan; then sanitized=1; fi
+if built_with_sanitizers; then sanitized=1; fi
 for deck in "$repo"/examples/*.toml; do
   name=$(basename "$deck" .toml)
   case "$name" in

@@ -19,7 +19,7 @@ steps=-1
 # Built with AddressSanitizer (scripts/test --sanitize), every iteration is several times slower:
 # the model is then a fifth as large, so that an iteration again takes about a second.
 elements=40000
-if ldd "$yarnsim" 2> /dev/null | grep -q libasan; then elements=8000; fi
+if built_with_sanitizers; then elements=8000; fi
 sed -e "s/^elements = .*/elements = $elements/" \
     -e 's/^end_time = .*/end_time = 0.5/' \
     -e "s/^node = 33/node = $((2 * elements + 1))/" \

@@ -18,6 +18,10 @@ expect() { # label expected-code args...
   [ "$got" -eq "$code" ] || { echo "FAIL $label: exit $got, expected $code"; cat "$label.log"; fail=1; }
 }
 
+# True when $yarnsim was built with AddressSanitizer (scripts/test --sanitize): its runs are
+# tens of times slower than in Release.
+built_with_sanitizers() { ldd "$yarnsim" 2> /dev/null | grep -q libasan; }
+
 require_tools() { # tool...
   local t
   for t in "$@"; do
