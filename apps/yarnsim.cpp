@@ -140,18 +140,20 @@ int main(int argc, char** argv) {
                   "--restart, the folder it restarts from)");
   run->add_option("--threads,-t", threads, "Number of threads")->check(CLI::Range(1, 1024));
   run->add_option("--linear-solver", solver,
-                  "Linear solver: auto (default: lu with applied moments or friction, ldlt-gmres "
-                  "with surface contact, otherwise ldlt, or mumps from 500 000 equations), lu "
+                  "Linear solver: auto (default: mumps, else lu, with applied moments or "
+                  "friction; ldlt-gmres with surface contact; otherwise ldlt, or mumps from "
+                  "500 000 equations; mumps on several processes), lu "
                   "(UMFPACK), ldlt (the symmetric part), ldlt-gmres (the full tangent by GMRES "
-                  "on the symmetric part's LDL^T, lu where that does not converge), mumps (the "
-                  "symmetric part by MUMPS, multifrontal) or petsc (the MPI build: the "
-                  "processes of an MPI run factorise together, MUMPS by default; auto's choice on "
-                  "more than one process)")
+                  "on the symmetric part's LDL^T, lu where that does not converge), mumps (MUMPS, "
+                  "multifrontal: LDL^T of the symmetric part, or LU where auto takes lu or "
+                  "ldlt-gmres) or petsc (the MPI build: the "
+                  "processes of an MPI run factorise together, MUMPS by default, or the solver "
+                  "PETSC_OPTIONS names)")
       ->check(CLI::IsMember({"auto", "lu", "ldlt", "ldlt-gmres", "mumps", "petsc"}));
   run->add_flag("--quiet,-q", quiet, "No progress line");
   run->add_flag("--timings", timings,
-                "At the end, the wall time of each stage of the Newton iterations (broad and "
-                "narrow phase, assembly, factorisation, solve)");
+                "At the end (also of a run that stops early), the wall time of each stage of "
+                "the Newton iterations (broad and narrow phase, assembly, factorisation, solve)");
   std::string restart;
   int stop_after = 0;
   run->add_option("--restart", restart,
@@ -284,6 +286,13 @@ int main(int argc, char** argv) {
                                   : !restart.empty()
                                       ? std::filesystem::path(restart)
                                       : std::filesystem::path("results") / deck_path.stem();
+  // What a run that stops early did: its stage times are printed with --timings.
+  yarnsim::RunSummary stopped;
+  const auto print_stopped_timings = [&] {
+    if (timings && stopped.iterations > 0)
+      fmt::print(stderr, "{}",
+                 yarnsim::stage_times_report(stopped.stage_times, stopped.iterations));
+  };
   try {
     const yarnsim::Model model = yarnsim::read_deck(deck_path);
     yarnsim::RunOptions options;
@@ -296,6 +305,7 @@ int main(int argc, char** argv) {
     options.stop_requested = &g_stop;
     options.restart_from = restart;
     options.stop_after = stop_after;
+    options.summary_on_stop = &stopped;
     fmt::print(stderr, "yarnsim {}: {} ({} nodes, {} elements), {}{} thread(s), output in {}\n",
                yarnsim::kVersion, model.title.empty() ? deck_path.filename().string() : model.title,
                model.nodes.size(), model.elements.size(),
@@ -327,6 +337,7 @@ int main(int argc, char** argv) {
   } catch (const yarnsim::ConvergenceError& e) {
     fmt::print(stderr, "error: {}\nThe results in {} hold every completed increment.\n", e.what(),
                out_dir.string());
+    print_stopped_timings();
     return kNoConvergence;
   } catch (const yarnsim::Interrupted& e) {
     fmt::print(stderr,
@@ -334,6 +345,7 @@ int main(int argc, char** argv) {
                "run {} --restart {}\n",
                e.what(), out_dir.string(), ranks > 1 ? fmt::format("mpirun -np {} ", ranks) : "",
                deck, out_dir.string());
+    print_stopped_timings();
     return kInterrupted;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());

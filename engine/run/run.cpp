@@ -983,6 +983,8 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
     writer.drain();
   } catch (const Interrupted& e) {
     observer.finish();
+    if (options.summary_on_stop)
+      *options.summary_on_stop = summarise(sim, start);
     if (const std::string error = drain(); !error.empty()) {
       results.close(fmt::format("failed: {}", error), error);
       throw std::runtime_error(error);
@@ -991,6 +993,8 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
     throw;
   } catch (const std::exception& e) {
     observer.finish();
+    if (options.summary_on_stop)
+      *options.summary_on_stop = summarise(sim, start);
     const std::string error = drain();
     const std::string why = error.empty() ? std::string(e.what()) : error;
     results.close(fmt::format("failed: {}", why), why);

@@ -29,6 +29,9 @@ struct RunOptions {
   /// > 0: stop (as interrupted) after the first increment written at or beyond this one, counted
   /// from the start of the run, before its end.
   int stop_after = 0;
+  /// Where the run stops early (interrupted, no convergence, any error), what it had done so
+  /// far is written here before the exception leaves run_model: `--timings` of a stopped run.
+  struct RunSummary* summary_on_stop = nullptr;
 };
 
 struct RunSummary {

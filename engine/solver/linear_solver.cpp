@@ -241,27 +241,31 @@ private:
 };
 
 #ifdef YARNSIM_HAVE_MUMPS
-/// LDL^T of the symmetric part by MUMPS (symmetric indefinite: SYM = 2), multifrontal, its fronts
-/// on the BLAS behind libblas.so.3, on the METIS ordering SymmetricLDLTSolver uses, handed in
-/// (ICNTL(7) = 1). Analysed once per pattern; a factorisation gathers the symmetric part's lower
-/// triangle into MUMPS's coordinate arrays.
+/// MUMPS, multifrontal, its fronts on the BLAS behind libblas.so.3, on the METIS ordering of the
+/// symmetric part's pattern (the ordering SymmetricLDLTSolver uses), handed in (ICNTL(7) = 1).
+/// - A symmetric tangent: LDL^T of the symmetric part (SYM = 2: symmetric, not necessarily
+///   positive definite), from its lower triangle.
+/// - Any other (friction, applied moments, surface contact): LU of the full tangent (SYM = 0,
+///   threshold partial pivoting), from all its entries. docs/performance.md, "MUMPS's LU for
+///   the non-symmetric tangents".
+/// Analysed once per pattern; a factorisation gathers the entries into MUMPS's coordinate arrays.
 /// - The oneTBB build: the sequential library, one process. docs/performance.md, "The
 ///   factorisation: MUMPS against today's LDL^T": 1.18 times faster than `ldlt` at 412 000
 ///   equations and 1.67 times at 912 000, equal at 62 000 and 235 000.
 /// - The MPI build: every process of the run factorises together (distributed.hpp). Each holds
-///   the whole tangent and hands MUMPS the lower triangle's entries of its share of the columns
-///   (distributed input, ICNTL(18) = 3); the host (rank 0) orders, takes the right-hand side and
-///   gets the solution, which it sends to the others: the same bits on every process. Collective.
+///   the whole tangent and hands MUMPS the entries of its share of the columns (distributed
+///   input, ICNTL(18) = 3); the host (rank 0) orders, takes the right-hand side and gets the
+///   solution, which it sends to the others: the same bits on every process. Collective.
 class MumpsSolver final : public LinearSolver {
 public:
-  MumpsSolver() {
+  explicit MumpsSolver(bool symmetric) : symmetric_(symmetric) {
 #ifdef YARNSIM_HAVE_MPI
     id_.comm_fortran = static_cast<MUMPS_INT>(MPI_Comm_c2f(MPI_COMM_WORLD));
 #else
     id_.comm_fortran = kSequentialCommunicator;
 #endif
-    id_.par = 1; // the host works too
-    id_.sym = 2; // symmetric, not necessarily positive definite
+    id_.par = 1;                 // the host works too
+    id_.sym = symmetric ? 2 : 0; // symmetric indefinite, or general (LU)
     call(-1, "initialisation");
     icntl(1) = icntl(2) = icntl(3) = -1; // no messages
     icntl(4) = 0;
@@ -284,17 +288,19 @@ public:
   MumpsSolver& operator=(const MumpsSolver&) = delete;
 
   void analyze(const SparseMatrix& A) override {
-    sym_.analyze(A);
+    sym_.analyze(A); // its pattern is METIS's graph
     const SparseMatrix& S = sym_.matrix();
-    // This process's columns: all of them on one process, contiguous shares over MPI.
-    const distributed::Share columns = distributed::share(static_cast<int>(S.outerSize()));
+    // This process's columns (all of them on one process, contiguous shares over MPI) of the
+    // symmetric part's lower triangle, or of the full tangent; 1-based coordinates.
+    const SparseMatrix& M = symmetric_ ? S : A;
+    const distributed::Share columns = distributed::share(static_cast<int>(M.outerSize()));
     irn_.clear();
     jcn_.clear();
     source_.clear();
     for (int col = columns.begin; col < columns.end; ++col)
-      for (int k = S.outerIndexPtr()[col]; k < S.outerIndexPtr()[col + 1]; ++k)
-        if (S.innerIndexPtr()[k] >= col) { // lower triangle, 1-based coordinates
-          irn_.push_back(S.innerIndexPtr()[k] + 1);
+      for (int k = M.outerIndexPtr()[col]; k < M.outerIndexPtr()[col + 1]; ++k)
+        if (!symmetric_ || M.innerIndexPtr()[k] >= col) {
+          irn_.push_back(M.innerIndexPtr()[k] + 1);
           jcn_.push_back(col + 1);
           source_.push_back(k);
         }
@@ -311,15 +317,16 @@ public:
     id_.jcn = jcn_.data();
     id_.a = values_.data();
 #endif
-    // The lower triangle's entries, all processes': the fill's denominator.
-    const double lower = 0.5 * static_cast<double>(S.nonZeros() + S.rows());
+    // The entries handed in, all processes': the fill's denominator.
+    const double handed_in = symmetric_ ? 0.5 * static_cast<double>(S.nonZeros() + S.rows())
+                                        : static_cast<double>(A.nonZeros());
     // A changed pattern keeps the last ordering while the factor's estimated entries (MUMPS's
     // analysis, INFOG(20), the same on every process) stay within kOrderingFillGrowth of those
     // it had when METIS computed it, as SymmetricLDLTSolver does; METIS orders it afresh
     // otherwise. At 48 x 48 METIS takes about 1 s of each analysis.
     if (ordering_.fill > 0 && ordering_.inverse_permutation.size() == std::size_t(A.rows())) {
       analyse_with_ordering();
-      if (factor_entries() <= kOrderingFillGrowth * ordering_.fill * lower)
+      if (factor_entries() <= kOrderingFillGrowth * ordering_.fill * handed_in)
         return;
     }
     if (distributed::rank() == 0) { // the host orders
@@ -330,7 +337,7 @@ public:
       ordering_.inverse_permutation.assign(static_cast<std::size_t>(A.rows()), 0);
     }
     analyse_with_ordering();
-    ordering_.fill = factor_entries() / lower;
+    ordering_.fill = factor_entries() / handed_in;
   }
   SolverOrdering ordering() const override {
     return ordering_;
@@ -339,8 +346,9 @@ public:
     ordering_ = o;
   }
   void factorize(const SparseMatrix& A) override {
-    sym_.update(A);
-    const double* s = sym_.matrix().valuePtr();
+    if (symmetric_)
+      sym_.update(A);
+    const double* s = symmetric_ ? sym_.matrix().valuePtr() : A.valuePtr();
     for (std::size_t k = 0; k < source_.size(); ++k)
       values_[k] = s[source_[k]];
     // Delayed pivots of an indefinite matrix can need more working space than the analysis
@@ -410,13 +418,16 @@ private:
                                                                      : ""));
   }
 
+  /// LDL^T of the symmetric part (SYM = 2), else LU of the full tangent (SYM = 0).
+  bool symmetric_;
   DMUMPS_STRUC_C id_{};
   SymmetricPart sym_;
   std::vector<MUMPS_INT> irn_, jcn_, perm_in_;
-  std::vector<int> source_;    ///< per lower-triangle entry of this process: the entry of S
+  /// Per entry handed in by this process: its index in S's values (LDL^T) or A's (LU).
+  std::vector<int> source_;
   std::vector<double> values_; ///< those entries' values, MUMPS's `a` (or `a_loc`)
   /// The ordering in use (the host's; zeros on the others) and its fill: the factor's estimated
-  /// entries over the lower triangle's when METIS computed it; 0: none yet.
+  /// entries over the entries handed in when METIS computed it; 0: none yet.
   SolverOrdering ordering_;
 };
 #endif
@@ -595,7 +606,7 @@ std::unique_ptr<LinearSolver> make_solver(LinearSolverKind kind, bool symmetric_
     return std::make_unique<LDLTGmresSolver>();
   if (kind == LinearSolverKind::MUMPS) {
 #ifdef YARNSIM_HAVE_MUMPS
-    return std::make_unique<MumpsSolver>();
+    return std::make_unique<MumpsSolver>(symmetric_tangent);
 #else
     throw std::invalid_argument("the linear solver 'mumps' is not available: this build of "
                                 "yarnsim was made without MUMPS (libmumps-seq-dev)");

@@ -20,8 +20,9 @@ class LinearSolverError : public std::runtime_error {
 
 enum class LinearSolverKind {
   /// LU where the model has applied moments or friction (their tangents are far from
-  /// symmetric), LDLTGmres where it has surface contact, LDLTSymmetric otherwise: see
-  /// docs/performance.md for the figures behind the choice.
+  /// symmetric: MUMPS's where built, else UMFPACK's), LDLTGmres where it has surface contact,
+  /// LDLTSymmetric otherwise (MUMPS's from kMumpsEquations on); MUMPS over several processes:
+  /// see docs/performance.md for the figures behind the choice.
   Auto,
   LU,            ///< LU of the full (non-symmetric) tangent, UMFPACK (SuiteSparse)
   LDLTSymmetric, ///< LDL^T of the symmetric part (A + A^T) / 2, Eigen SimplicialLDLT + METIS
@@ -32,12 +33,14 @@ enum class LinearSolverKind {
   /// relative residual of 1e-10; LU where that does not converge in 20 iterations, and for the
   /// rest of that Newton attempt.
   LDLTGmres,
-  /// LDL^T of the symmetric part by MUMPS (sequential, multifrontal) on the same METIS ordering;
-  /// `auto`'s choice for `ldlt`'s models from kMumpsEquations equations on, where MUMPS is built.
+  /// MUMPS (sequential, multifrontal) on the same METIS ordering: LDL^T of the symmetric part
+  /// where the tangent is symmetric, LU of the full tangent otherwise (make_linear_solver's
+  /// symmetric_tangent). `auto`'s choice for `ldlt`'s models from kMumpsEquations equations on
+  /// and for `lu`'s models at any size, where MUMPS is built.
   MUMPS,
   /// The tangent factorised by the processes of an MPI run together, through PETSc (MUMPS by
-  /// default: LDL^T of the symmetric part, or LU where the tangent is far from symmetric);
-  /// `auto`'s choice on more than one process. The build with YARNSIM_MPI (petsc_solver.hpp).
+  /// default: LDL^T of the symmetric part, or LU where the tangent is far from symmetric), or
+  /// any solver PETSc's options name. The build with YARNSIM_MPI (petsc_solver.hpp).
   PETSc
 };
 
@@ -82,7 +85,7 @@ public:
 };
 
 /// symmetric_tangent: the kinds that choose between the symmetric part and the full tangent
-/// (PETSc) take the symmetric part.
+/// (MUMPS, PETSc) take the symmetric part; else the full tangent.
 std::unique_ptr<LinearSolver> make_linear_solver(LinearSolverKind kind,
                                                  bool symmetric_tangent = true);
 /// "auto", "lu", "ldlt", "ldlt-gmres", "mumps", "cholmod" or "petsc". Throws std::invalid_argument

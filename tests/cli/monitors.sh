@@ -5,7 +5,7 @@
 # splines and segments, position, gap, force, normal), the same on 1 and 2 threads.
 # Cases: the crossing beams (spline contact, touching at the start), a 3 x 3 biaxial weave
 # (curves.csv, several contacts per increment), the explicit flying beam (energy.csv), and the
-# stage times of --timings.
+# stage times of --timings (also of a run stopped early).
 # Usage: monitors.sh YARNSIM REPO WORKDIR
 set -u
 yarnsim="$1"; repo="$2"; work="$3"
@@ -117,6 +117,13 @@ for stage in "broad phase" "narrow phase" "beam assembly" "factorisation" "solve
   grep -Eq "^  $stage.* [0-9]+\.[0-9]{3} s +[0-9]+\.[0-9]{3} ms/iteration$" timings.txt ||
     { echo "FAIL timings: no row '$stage'"; fail=1; }
 done
+# ... also of a run that stops early (here by --stop-after, exit 130): over its iterations so far.
+"$yarnsim" run "$repo/examples/crossing-beams.toml" -o timings-stopped -q --threads 1 --timings \
+  --stop-after 2 2> timings-stopped.txt
+code=$?
+[ "$code" -eq 130 ] || { echo "FAIL timings of a stopped run: exit $code, expected 130"; fail=1; }
+grep -Eq "^stage times over [1-9][0-9]* Newton iterations \(wall\):$" timings-stopped.txt ||
+  { echo "FAIL timings of a stopped run: no stage table: $(cat timings-stopped.txt)"; fail=1; }
 
 if [ "$fail" -eq 0 ]; then echo "monitors: all checks passed"; fi
 exit "$fail"

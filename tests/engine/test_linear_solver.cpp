@@ -157,6 +157,41 @@ TEST(LinearSolver, MumpsSolvesTheSymmetricPartAsLDLTDoes) {
   EXPECT_THROW(fresh->factorize(singular), LinearSolverError);
 }
 
+TEST(LinearSolver, MumpsFactorisesANonSymmetricTangentByLUAsUmfpackDoes) {
+  // Asked for a tangent that is not symmetric (friction, applied moments), MUMPS factorises the
+  // full matrix (LU), not its symmetric part: the solution is the full system's, as UMFPACK's.
+  if (!mumps_available())
+    GTEST_SKIP() << "this build has no MUMPS";
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto mumps = make_linear_solver(LinearSolverKind::MUMPS, /*symmetric_tangent=*/false);
+  // Nearly symmetric, then far from it (skew entries ten times the symmetric ones) on the same
+  // analysis, then a new pattern analysed afresh.
+  for (int round = 0; round < 3; ++round) {
+    const int n = round == 2 ? 607 : 600;
+    const SparseMatrix A = banded(n, round == 0 ? 1e-3 : 10.0, rng);
+    Eigen::VectorXd b(n);
+    for (int i = 0; i < n; ++i)
+      b(i) = u(rng);
+    if (round != 1)
+      mumps->analyze(A);
+    mumps->factorize(A);
+    const Eigen::VectorXd x = mumps->solve(b);
+    const Eigen::VectorXd lu = solve_with(LinearSolverKind::LU, A, b);
+    EXPECT_LT(relative_residual(A, x, b), 1e-13) << "round " << round;
+    EXPECT_LT((x - lu).norm(), 1e-12 * lu.norm()) << "round " << round;
+  }
+  // A singular matrix is an error with MUMPS's code, not a wrong answer.
+  SparseMatrix singular = banded(50, 1.0, rng);
+  for (int k = 0; k < singular.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(singular, k); it; ++it)
+      if (it.row() == 7)
+        it.valueRef() = 0.0;
+  auto fresh = make_linear_solver(LinearSolverKind::MUMPS, false);
+  fresh->analyze(singular);
+  EXPECT_THROW(fresh->factorize(singular), LinearSolverError);
+}
+
 TEST(LinearSolver, AutoTakesMumpsForLargeSymmetricModels) {
   // A clamped beam of m elements has 12 m free equations: 'auto' takes ldlt below
   // kMumpsEquations and mumps from there on (where this build has MUMPS).
@@ -171,6 +206,34 @@ TEST(LinearSolver, AutoTakesMumpsForLargeSymmetricModels) {
     EXPECT_EQ(large, elements == first);
     EXPECT_EQ(sim.linear_solver_name(), large && mumps_available() ? "mumps" : "ldlt");
   }
+}
+
+TEST(LinearSolver, AutoTakesMumpsLUForTangentsFarFromSymmetric) {
+  // A cantilever rolled by a follower end moment (a far from symmetric tangent): 'auto' takes
+  // MUMPS's LU where this build has MUMPS, UMFPACK's otherwise, and either reaches lu's answer.
+  const Section s = test::stiffness_section(1e4, 1e4, 1.0, 1.0);
+  Model m = test::straight_beam({0, 0, 0}, {1, 0, 0}, 20, s);
+  m.constraints.push_back(test::clamp(1)); // "start"
+  NodalLoad roll;
+  roll.node_set = 2;                      // "end"
+  roll.moment = {0, 0, std::numbers::pi}; // half a turn at t = 1
+  roll.follower_moment = true;
+  roll.factor = TimeTable::ramp(1.0);
+  m.loads.push_back(roll);
+  m.steps.push_back(test::static_step(1.0, 0.1));
+  Simulation automatic(m);
+  EXPECT_EQ(automatic.linear_solver_name(), mumps_available() ? "mumps" : "lu");
+  SimulationOptions lu_options;
+  lu_options.linear_solver = LinearSolverKind::LU;
+  Simulation lu(m, lu_options);
+  EXPECT_EQ(lu.linear_solver_name(), "lu");
+  automatic.run();
+  lu.run();
+  const Eigen::Matrix3Xd &x = automatic.state().x_n, &reference = lu.state().x_n;
+  EXPECT_LT((x - reference).norm(), 1e-10 * reference.norm());
+  // Rolled: the tip has come back towards the clamp (a half circle of diameter 2 / pi).
+  EXPECT_NEAR(x.col(40).x(), 0.0, 1e-6);
+  EXPECT_NEAR(x.col(40).y(), 2.0 / std::numbers::pi, 1e-3);
 }
 
 /// The 5-point Laplacian of an m x m grid plus 0.1 on the diagonal, with extra symmetric

@@ -2,8 +2,9 @@
 # mpirun -np 1, 2 and 3 (oversubscribed) on the paper's 6 x 6 biaxial test and a 12 x 12 weave:
 # the same curves, monitor rows, positions and contact forces at every step as the one-process
 # run of the oneTBB path (`ldlt`), within 1e-10 relative, with the solver auto takes over MPI
-# (MUMPS's LDL^T) and with PETSc's (`petsc`); a friction run (PETSc's LU) within 1e-10 and an
-# explicit run bitwise on 2 processes. Only rank 0 speaks: one start line, one done line.
+# (MUMPS's LDL^T) and with PETSc's (`petsc`); a friction run (MUMPS's LU, PETSc's) within 1e-10
+# of UMFPACK's and an explicit run bitwise on 2 processes. Only rank 0 speaks: one start line,
+# one done line.
 # Usage: ranks.sh YARNSIM REPO WORKDIR
 set -u
 yarnsim="$1"; repo="$2"; work="$3"
@@ -35,10 +36,13 @@ for deck in w6 w12; do
     "$python" "$compare" "$deck-ref" "$out" 1e-10 || { echo "FAIL $out: differs from the one-process run"; fail=1; }
   done
 done
-# A tangent far from symmetric (friction): PETSc's LU over 2 processes, which auto takes, against
-# the one-process run's (auto: UMFPACK's LU). And the explicit path, replicated: the same bits.
+# A tangent far from symmetric (friction): MUMPS's LU over 2 processes, which auto takes, and
+# PETSc's, against the one-process run of UMFPACK's LU. And the explicit path, replicated: the
+# same bits.
 for deck in biaxial-k1-friction flying-beam-explicit; do
-  "$yarnsim" run "$repo/examples/$deck.toml" -o "$deck-ref" -q > "$deck-ref.log" 2>&1 ||
+  solver=()
+  [ "$deck" = biaxial-k1-friction ] && solver=(--linear-solver lu)
+  "$yarnsim" run "$repo/examples/$deck.toml" -o "$deck-ref" -q "${solver[@]}" > "$deck-ref.log" 2>&1 ||
     { echo "FAIL $deck: the one-process run failed"; cat "$deck-ref.log"; fail=1; continue; }
   mpi 2 run "$repo/examples/$deck.toml" -o "$deck-np2" -q > "$deck-np2.log" 2>&1 ||
     { echo "FAIL $deck over 2 processes failed"; cat "$deck-np2.log"; fail=1; continue; }
@@ -46,11 +50,15 @@ for deck in biaxial-k1-friction flying-beam-explicit; do
   [ "$deck" = flying-beam-explicit ] && tolerance=0
   "$python" "$compare" "$deck-ref" "$deck-np2" "$tolerance" || { echo "FAIL $deck-np2: differs from the one-process run"; fail=1; }
 done
-h5dump -A biaxial-k1-friction-np2/results.h5 | grep -q 'linear solver petsc"' ||
-  { echo "FAIL: the friction run over 2 processes did not use petsc"; fail=1; }
+mpi 2 run "$repo/examples/biaxial-k1-friction.toml" -o biaxial-k1-friction-np2-petsc -q \
+  --linear-solver petsc > biaxial-k1-friction-np2-petsc.log 2>&1 ||
+  { echo "FAIL biaxial-k1-friction over 2 processes with petsc failed"; fail=1; }
+"$python" "$compare" biaxial-k1-friction-ref biaxial-k1-friction-np2-petsc 1e-10 ||
+  { echo "FAIL biaxial-k1-friction-np2-petsc: differs from the one-process run"; fail=1; }
 
 # What the runs used: MUMPS over MPI by default, PETSc where asked.
-for r in w12-np2-auto:mumps w6-np3-petsc:petsc; do
+for r in w12-np2-auto:mumps w6-np3-petsc:petsc biaxial-k1-friction-np2:mumps \
+  biaxial-k1-friction-np2-petsc:petsc biaxial-k1-friction-ref:lu; do
   h5dump -A "${r%%:*}/results.h5" | grep -q "linear solver ${r#*:}\"" ||
     { echo "FAIL ${r%%:*}: its results do not name the linear solver ${r#*:}"; fail=1; }
 done

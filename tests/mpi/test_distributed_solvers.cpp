@@ -120,8 +120,8 @@ TEST_P(DistributedSolver, RefusesASingularSystemOnEveryProcess) {
 
 INSTANTIATE_TEST_SUITE_P(
     Mpi, DistributedSolver,
-    ::testing::Values(Case{LinearSolverKind::MUMPS, true}, Case{LinearSolverKind::PETSc, true},
-                      Case{LinearSolverKind::PETSc, false}),
+    ::testing::Values(Case{LinearSolverKind::MUMPS, true}, Case{LinearSolverKind::MUMPS, false},
+                      Case{LinearSolverKind::PETSc, true}, Case{LinearSolverKind::PETSc, false}),
     [](const auto& info) {
       return std::string(info.param.kind == LinearSolverKind::MUMPS ? "Mumps" : "Petsc") +
              (info.param.symmetric ? "LDLT" : "LU");
