@@ -15,6 +15,20 @@
 
 namespace yarnsim {
 
+struct RunSummary {
+  int increments = 0;
+  int iterations = 0;
+  double wall_seconds = 0;
+  Eigen::Matrix3Xd final_positions;         ///< 3 x n_nodes, m
+  std::vector<ContactPoint> final_contacts; ///< active contact points at the end
+  std::string linear_solver;
+  /// J: energy dissipated by Rayleigh damping (simulation.hpp EnergyBalance::damping) and the
+  /// strain and contact energy stored at the end.
+  double damping_dissipation = 0;
+  double stored_energy = 0;
+  StageTimes stage_times; ///< wall time per stage of the Newton iterations, s
+};
+
 struct RunOptions {
   std::filesystem::path output_dir; ///< created if missing
   std::string deck_text;            ///< stored verbatim in the results
@@ -31,21 +45,7 @@ struct RunOptions {
   int stop_after = 0;
   /// Where the run stops early (interrupted, no convergence, any error), what it had done so
   /// far is written here before the exception leaves run_model: `--timings` of a stopped run.
-  struct RunSummary* summary_on_stop = nullptr;
-};
-
-struct RunSummary {
-  int increments = 0;
-  int iterations = 0;
-  double wall_seconds = 0;
-  Eigen::Matrix3Xd final_positions;         ///< 3 x n_nodes, m
-  std::vector<ContactPoint> final_contacts; ///< active contact points at the end
-  std::string linear_solver;
-  /// J: energy dissipated by Rayleigh damping (simulation.hpp EnergyBalance::damping) and the
-  /// strain and contact energy stored at the end.
-  double damping_dissipation = 0;
-  double stored_energy = 0;
-  StageTimes stage_times; ///< wall time per stage of the Newton iterations, s
+  RunSummary* summary_on_stop = nullptr;
 };
 
 /// Runs every step of the model, or the rest of them from options.restart_from. Throws

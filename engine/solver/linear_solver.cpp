@@ -288,11 +288,13 @@ public:
   MumpsSolver& operator=(const MumpsSolver&) = delete;
 
   void analyze(const SparseMatrix& A) override {
-    sym_.analyze(A); // its pattern is METIS's graph
-    const SparseMatrix& S = sym_.matrix();
+    // LDL^T takes the symmetric part's values; LU the tangent's own (the symmetric part's
+    // pattern is then made only where METIS needs it, below).
+    if (symmetric_)
+      sym_.analyze(A);
     // This process's columns (all of them on one process, contiguous shares over MPI) of the
     // symmetric part's lower triangle, or of the full tangent; 1-based coordinates.
-    const SparseMatrix& M = symmetric_ ? S : A;
+    const SparseMatrix& M = symmetric_ ? sym_.matrix() : A;
     const distributed::Share columns = distributed::share(static_cast<int>(M.outerSize()));
     irn_.clear();
     jcn_.clear();
@@ -318,7 +320,7 @@ public:
     id_.a = values_.data();
 #endif
     // The entries handed in, all processes': the fill's denominator.
-    const double handed_in = symmetric_ ? 0.5 * static_cast<double>(S.nonZeros() + S.rows())
+    const double handed_in = symmetric_ ? 0.5 * static_cast<double>(M.nonZeros() + M.rows())
                                         : static_cast<double>(A.nonZeros());
     // A changed pattern keeps the last ordering while the factor's estimated entries (MUMPS's
     // analysis, INFOG(20), the same on every process) stay within kOrderingFillGrowth of those
@@ -329,8 +331,9 @@ public:
       if (factor_entries() <= kOrderingFillGrowth * ordering_.fill * handed_in)
         return;
     }
-    if (distributed::rank() == 0) { // the host orders
-      const Permutation inverse = metis_inverse_permutation(S);
+    if (distributed::rank() == 0) { // the host orders, on the symmetric part's pattern
+      const Permutation inverse =
+          metis_inverse_permutation(symmetric_ ? M : SparseMatrix(A + SparseMatrix(A.transpose())));
       ordering_.inverse_permutation.assign(inverse.indices().data(),
                                            inverse.indices().data() + inverse.size());
     } else {
@@ -421,7 +424,7 @@ private:
   /// LDL^T of the symmetric part (SYM = 2), else LU of the full tangent (SYM = 0).
   bool symmetric_;
   DMUMPS_STRUC_C id_{};
-  SymmetricPart sym_;
+  SymmetricPart sym_; ///< the tangent's symmetric part (LDL^T only)
   std::vector<MUMPS_INT> irn_, jcn_, perm_in_;
   /// Per entry handed in by this process: its index in S's values (LDL^T) or A's (LU).
   std::vector<int> source_;
