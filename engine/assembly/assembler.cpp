@@ -197,7 +197,8 @@ BeamNodalValues Assembler::nodal_values(const State& state, int e) const {
 
 void Assembler::add_beams(const State& state, Eigen::VectorXd& residual, bool want_tangent,
                           const StiffnessDamping& damping,
-                          const std::vector<Eigen::Matrix<double, 6, 2>>* stress) {
+                          const std::vector<Eigen::Matrix<double, 6, 2>>* stress,
+                          const NodePartition* owned) {
   const bool damped = damping.b != 0.0 && damping.velocity != nullptr;
   const bool need_K = want_tangent || damped;
   double* values = matrix_.valuePtr();
@@ -210,6 +211,8 @@ void Assembler::add_beams(const State& state, Eigen::VectorXd& residual, bool wa
           ElementMatrix K;
           for (std::size_t k = range.begin(); k != range.end(); ++k) {
             const int e = colour[k];
+            if (owned && !owned->owns(connectivity_[e][0]))
+              continue;
             const BeamNodalValues v = nodal_values(state, e);
             // The stress terms from `stress` where the tangent is wanted and no damping needs
             // the strains' own K first.

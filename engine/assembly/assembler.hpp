@@ -4,6 +4,7 @@
 // node (even and odd elements along a yarn), so each colour is scattered in parallel without locks
 // and every matrix entry is summed in the same order on any thread count.
 
+#include "engine/assembly/partition.hpp"
 #include "engine/beam/beam_element.hpp"
 #include "engine/solver/linear_solver.hpp"
 #include "engine/state/state.hpp"
@@ -57,10 +58,12 @@ public:
   /// to matrix(). Runs the colours in order, each in parallel. With `stress` (per element, the
   /// material section resultants at its Gauss points) the tangent's stress terms take those
   /// (the mixed integration point Newton, beam_internal_force); the forces, and the stiffness
-  /// damping's K v, stay those of the current strains.
+  /// damping's K v, stay those of the current strains. With `owned`, only the elements whose
+  /// first node it owns (a process's share of a run over several: partition.hpp).
   void add_beams(const State& state, Eigen::VectorXd& residual, bool want_tangent,
                  const StiffnessDamping& damping,
-                 const std::vector<Eigen::Matrix<double, 6, 2>>* stress = nullptr);
+                 const std::vector<Eigen::Matrix<double, 6, 2>>* stress = nullptr,
+                 const NodePartition* owned = nullptr);
 
   /// Adds a 3 x 3 block to the tangent at node rows/cols (offset 0: translations, 3: rotations).
   void add_node_block(int node, int row_offset, int col_offset, const Eigen::Matrix3d& block);

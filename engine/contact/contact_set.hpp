@@ -134,19 +134,20 @@ double smallest_limit(std::size_t n, Limit limit) {
       [](double a, double b) { return std::min(a, b); });
 }
 
-/// The first step of a contact set's assembly: the indices of the active items of `work` (in
-/// their order) into `items` and, for a tangent, each one's `block` matrix slots in `cache`
+/// The first step of a contact set's assembly: the indices of the active items of `work` that
+/// `owned(item)` accepts (a process's share: partition.hpp), in their order, into `items` and,
+/// for a tangent, each one's `block` matrix slots in `cache`
 /// (cache.slots(item)): those the cache lacks (new active items, or all after the pattern
 /// `pattern_id` changed) are looked up in parallel by slots_of(item, destination), an
 /// Assembler::*_block_slots lookup. The set then adds the pairs in their order (add_by_node):
 /// the same sums on any thread count.
-template <class Work, class SlotsOf>
+template <class Work, class Owned, class SlotsOf>
 void find_active_slots(const std::vector<Work>& work, bool want_tangent, int block,
                        std::uint64_t pattern_id, std::vector<int>& items, SlotCache& cache,
-                       SlotsOf slots_of) {
+                       Owned owned, SlotsOf slots_of) {
   items.clear();
   for (std::size_t w = 0; w < work.size(); ++w)
-    if (work[w].result.active)
+    if (work[w].result.active && owned(work[w]))
       items.push_back(static_cast<int>(w));
   if (!want_tangent)
     return;
@@ -297,8 +298,9 @@ public:
   /// length in the factor long before they touch (docs/performance.md).
   virtual std::vector<ContactCoupling> couplings() const = 0;
   /// Adds the active pairs' residuals and, if want_tangent, tangents, in sorted pair order.
-  virtual void assemble(Eigen::VectorXd& residual, Assembler& assembler,
-                        bool want_tangent) const = 0;
+  /// With `owned`, only the pairs whose first node it owns (a process's share: partition.hpp).
+  virtual void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
+                        const NodePartition* owned = nullptr) const = 0;
   /// Accepts the last evaluation as converged: warm starts and active flags for the next one.
   virtual void commit() = 0;
   /// Figures of the last evaluation (computed with it, not on each call).

@@ -73,10 +73,10 @@ std::vector<ContactCoupling> ContactStage::couplings() const {
   return out;
 }
 
-void ContactStage::assemble(Eigen::VectorXd& residual, Assembler& assembler,
-                            bool want_tangent) const {
+void ContactStage::assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
+                            const NodePartition* owned) const {
   for (const auto& set : sets_)
-    set->assemble(residual, assembler, want_tangent);
+    set->assemble(residual, assembler, want_tangent, owned);
 }
 
 void ContactStage::commit() {

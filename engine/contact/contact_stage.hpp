@@ -33,7 +33,8 @@ public:
   std::string evaluate(const State& state, bool want_tangent);
   int candidates_version() const;
   std::vector<ContactCoupling> couplings() const;
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
+                const NodePartition* owned = nullptr) const;
   void commit();
   /// The smallest ContactSet::closing_limit of the sets.
   double closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,

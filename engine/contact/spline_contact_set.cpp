@@ -434,8 +434,8 @@ std::vector<ContactCoupling> SplineContactSet::couplings() const {
   return out;
 }
 
-void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
-                                bool want_tangent) const {
+void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
+                                const NodePartition* owned) const {
   // Tangents are left as they were where they were not computed (project), so a tangent asked
   // for here must come from a projection that computed it.
   if (want_tangent && !tangents_computed_)
@@ -444,11 +444,15 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
   // its order (find_active_slots).
   constexpr int kBlock = 18 * 18;
-  find_active_slots(work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_,
-                    assembly_slots_, [&](const Work& item, int* slots) {
-                      assembler.translation_block_slots(
-                          nodes_of(*definitions_[item.definition], item.pair), slots);
-                    });
+  find_active_slots(
+      work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_, assembly_slots_,
+      [&](const Work& item) {
+        return !owned || owned->owns(nodes_of(*definitions_[item.definition], item.pair)[0]);
+      },
+      [&](const Work& item, int* slots) {
+        assembler.translation_block_slots(nodes_of(*definitions_[item.definition], item.pair),
+                                          slots);
+      });
   // Each item's nodes and line friction, then the items added in parallel over their nodes,
   // each node's in the items' order (add_by_node): the same sums as one loop over the items.
   assembly_nodes_.resize(assembly_items_.size());

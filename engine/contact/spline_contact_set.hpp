@@ -52,7 +52,8 @@ public:
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;
   /// Translations only: the splines' control points carry no rotations.
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
+                const NodePartition* owned = nullptr) const override;
   void commit() override;
   /// Gaps are effective gaps (eq. 12).
   const ContactSummary& summary() const override { return summary_; }

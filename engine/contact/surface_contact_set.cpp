@@ -461,16 +461,20 @@ std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
   return out;
 }
 
-void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
-                                 bool want_tangent) const {
+void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
+                                 const NodePartition* owned) const {
   // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
   // its order (find_active_slots).
   constexpr int kBlock = 24 * 24;
-  find_active_slots(work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_,
-                    assembly_slots_, [&](const Work& item, int* slots) {
-                      assembler.surface_pair_block_slots(
-                          nodes_of(*definitions_[item.definition], item.pair), slots);
-                    });
+  find_active_slots(
+      work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_, assembly_slots_,
+      [&](const Work& item) {
+        return !owned || owned->owns(nodes_of(*definitions_[item.definition], item.pair)[0]);
+      },
+      [&](const Work& item, int* slots) {
+        assembler.surface_pair_block_slots(nodes_of(*definitions_[item.definition], item.pair),
+                                           slots);
+      });
   // The items added in parallel over their end nodes, each node's in the items' order
   // (add_by_node): the same sums as one loop over the items.
   assembly_nodes_.resize(assembly_items_.size());

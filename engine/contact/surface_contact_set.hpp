@@ -42,7 +42,8 @@ public:
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
+                const NodePartition* owned = nullptr) const override;
   void commit() override;
   /// Gaps are signed distances between the surfaces.
   const ContactSummary& summary() const override { return summary_; }

@@ -1,5 +1,7 @@
 #include "engine/solver/distributed.hpp"
 
+#include <algorithm>
+
 #ifdef YARNSIM_HAVE_MPI
 #include <mpi.h>
 #endif
@@ -38,6 +40,24 @@ bool any(bool local) {
   return all != 0;
 }
 
+void sum(double* data, std::size_t n) {
+  if (size() == 1)
+    return;
+  // MPI counts are ints: in chunks below 2^31 values.
+  constexpr std::size_t kChunk = std::size_t{1} << 30;
+  for (std::size_t offset = 0; offset < n; offset += kChunk)
+    MPI_Allreduce(MPI_IN_PLACE, data + offset, static_cast<int>(std::min(kChunk, n - offset)),
+                  MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+}
+
+double largest(double local) {
+  if (size() == 1)
+    return local;
+  double all = local;
+  MPI_Allreduce(&local, &all, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  return all;
+}
+
 int ranks_on_this_machine() {
   if (size() == 1)
     return 1;
@@ -56,6 +76,10 @@ int size() {
   return 1;
 }
 bool any(bool local) {
+  return local;
+}
+void sum(double*, std::size_t) {}
+double largest(double local) {
   return local;
 }
 int ranks_on_this_machine() {

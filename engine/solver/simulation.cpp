@@ -85,6 +85,10 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
       }
     }
   assembler_ = std::make_unique<Assembler>(model, constrained);
+  // Over several processes each assembles its share of the elements, the pairs and the nodes'
+  // terms, and evaluate() sums them (partition.hpp).
+  if (distributed::size() > 1)
+    partition_ = partition_nodes(model, distributed::rank(), distributed::size());
   LinearSolverKind kind = options.linear_solver;
   const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
                                    [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
@@ -313,7 +317,8 @@ struct Simulation::IterationGraph {
                 Eigen::VectorXd& r = *s.iteration_.residual;
                 s.assembler_->add_beams(s.state_, r, s.iteration_.want_tangent,
                                         s.iteration_.damping,
-                                        s.mixed_.active ? &s.mixed_.resultants : nullptr);
+                                        s.mixed_.active ? &s.mixed_.resultants : nullptr,
+                                        s.partition_ ? &*s.partition_ : nullptr);
                 double f = 0, m = 0;
                 for (int i = 0; i < s.state_.n_nodes(); ++i) {
                   f = std::max(f, r.segment<3>(6 * i).norm());
@@ -333,7 +338,8 @@ struct Simulation::IterationGraph {
                              if (s.iteration_.want_tangent)
                                s.assembler_->ensure_couplings(std::move(s.iteration_.couplings));
                              s.contact_->assemble(*s.iteration_.residual, *s.assembler_,
-                                                  s.iteration_.want_tangent);
+                                                  s.iteration_.want_tangent,
+                                                  s.partition_ ? &*s.partition_ : nullptr);
                            }
                            s.stage_times_.other_assembly += seconds_since(t0);
                          }),
@@ -481,6 +487,8 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
     tbb::parallel_for(
         tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
           for (int i = range.begin(); i != range.end(); ++i) {
+            if (partition_ && !partition_->owns(i))
+              continue;
             residual.segment<3>(6 * i) += inertia_.force.col(i);
             residual.segment<3>(6 * i + 3) += inertia_.moment.col(i);
             if (want_tangent) {
@@ -499,8 +507,10 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
     if (factor == 0.0)
       continue;
     for (int node : model_.node_sets[l.node_set].nodes) {
-      residual.segment<3>(6 * node) -= factor * reference_components(l, l.force, node);
       ref_force = std::max(ref_force, std::abs(factor) * l.force.norm());
+      if (partition_ && !partition_->owns(node))
+        continue;
+      residual.segment<3>(6 * node) -= factor * reference_components(l, l.force, node);
       if (l.moment.squaredNorm() == 0.0)
         continue;
       Eigen::Vector3d r;
@@ -512,6 +522,17 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
         assembler_->add_node_block(node, 3, 3, K);
       ref_moment = std::max(ref_moment, std::abs(factor) * l.moment.norm());
     }
+  }
+  // Over several processes each holds the sums of its share (partition.hpp): summed here, every
+  // process has the whole residual and matrix, and the solver takes them as in a one-process run.
+  // The beams' largest nodal force is complete on the process owning the node's yarn.
+  if (partition_) {
+    distributed::sum(residual.data(), static_cast<std::size_t>(residual.size()));
+    if (want_tangent)
+      distributed::sum(assembler_->matrix().valuePtr(),
+                       static_cast<std::size_t>(assembler_->matrix().nonZeros()));
+    ref_force = distributed::largest(ref_force);
+    ref_moment = distributed::largest(ref_moment);
   }
   stage_times_.other_assembly +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -5,6 +5,7 @@
 // Simo and Vu-Quoc's material form on rotations.
 
 #include "engine/assembly/assembler.hpp"
+#include "engine/assembly/partition.hpp"
 #include "engine/contact/contact_stage.hpp"
 #include "engine/model/model.hpp"
 #include "engine/solver/linear_solver.hpp"
@@ -14,6 +15,7 @@
 #include <atomic>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -305,6 +307,9 @@ private:
   Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1
   int total_iterations_ = 0;
   StageTimes stage_times_;
+  /// This process's share of the assembly over several processes (partition.hpp); none (every
+  /// element, pair and node) in a one-process run.
+  std::optional<NodePartition> partition_;
   double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();
 
   struct IterationGraph;

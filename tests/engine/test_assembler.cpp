@@ -3,13 +3,18 @@
 // assembled without its coupling is refused instead of writing outside the matrix.
 #include "beam_models.hpp"
 #include "engine/assembly/assembler.hpp"
+#include "engine/assembly/partition.hpp"
 #include "engine/contact/contact_set.hpp"
+#include "engine/contact/contact_stage.hpp"
+#include "engine/input/read_deck.hpp"
+#include "engine/solver/simulation.hpp"
 #include "engine/state/state.hpp"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <filesystem>
 #include <random>
 #include <stdexcept>
 
@@ -256,11 +261,12 @@ TEST(ContactAssembly, SlotsAreLookedUpAgainOnlyForNewPairsOrANewPattern) {
   SlotCache cache;
   int looked_up = 0;
   const auto evaluate = [&] {
-    find_active_slots(work, true, 324, assembler.pattern_id(), items, cache,
-                      [&](const Item& item, int* slots) {
-                        ++looked_up;
-                        assembler.translation_block_slots(item.nodes, slots);
-                      });
+    find_active_slots(
+        work, true, 324, assembler.pattern_id(), items, cache, [](const auto&) { return true; },
+        [&](const Item& item, int* slots) {
+          ++looked_up;
+          assembler.translation_block_slots(item.nodes, slots);
+        });
     // Every active pair's cached slots are those a fresh look-up gives.
     for (int w : items) {
       std::array<int, 324> fresh;
@@ -283,6 +289,67 @@ TEST(ContactAssembly, SlotsAreLookedUpAgainOnlyForNewPairsOrANewPattern) {
   cache.clear();
   evaluate();
   EXPECT_EQ(looked_up, 6);
+}
+
+TEST(Partition, EveryElementAndContactPairIsAssembledByExactlyOneProcess) {
+  // A run over several processes (partition.hpp): each assembles the elements and contact pairs
+  // whose first node it owns, and evaluate() sums their residuals and matrices. Over any number
+  // of processes the sums are the one-process assembly's, so no element or pair is left out or
+  // assembled twice. On 2 processes the paper's fabric splits into its warp (nodes of the first
+  // 6 yarns) and its weft, so every crossing pair couples nodes of both processes.
+  for (const char* deck : {"biaxial-k1.toml", "biaxial-surface-k1.toml"}) {
+    SCOPED_TRACE(deck);
+    Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / deck);
+    m.steps[0].end_time = 0.4; // past the crossings' closing
+    Simulation sim(m);
+    sim.run();
+    const State& state = sim.state();
+    const int n = state.n_nodes();
+    const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
+    stage->update_candidates(state);
+    ASSERT_EQ(stage->evaluate(state, true), "");
+    ASSERT_GE(stage->active(), 36);
+    Assembler assembler(m, std::vector<char>(static_cast<std::size_t>(6 * n), 0));
+    assembler.ensure_couplings(stage->couplings());
+    const auto assemble = [&](const NodePartition* owned) {
+      Eigen::VectorXd r = Eigen::VectorXd::Zero(6 * n);
+      assembler.zero_matrix();
+      assembler.add_beams(state, r, true, {}, nullptr, owned);
+      stage->assemble(r, assembler, true, owned);
+      const SparseMatrix& K = assembler.matrix();
+      return std::pair{
+          r, Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(K.valuePtr(), K.nonZeros()))};
+    };
+    const auto [r_one, K_one] = assemble(nullptr);
+    for (const int ranks : {2, 3, 5}) {
+      SCOPED_TRACE(ranks);
+      const std::vector<NodePartition> parts = partition_all(m, ranks);
+      ASSERT_EQ(parts.size(), std::size_t(ranks));
+      EXPECT_EQ(parts.front().first, 0);
+      EXPECT_EQ(parts.back().last, n);
+      for (int k = 0; k + 1 < ranks; ++k)
+        EXPECT_EQ(parts[k].last, parts[k + 1].first);
+      if (ranks == 2)
+        EXPECT_EQ(parts[0].last, n / 2); // the warp's 6 yarns, then the weft's
+      // Whole yarns: every element's nodes on one process.
+      for (const auto& e : m.elements) {
+        int owner = 0;
+        while (!parts[owner].owns(e.nodes[0]))
+          ++owner;
+        for (int a : e.nodes)
+          EXPECT_TRUE(parts[owner].owns(a));
+      }
+      Eigen::VectorXd r_sum = Eigen::VectorXd::Zero(6 * n),
+                      K_sum = Eigen::VectorXd::Zero(K_one.size());
+      for (const NodePartition& part : parts) {
+        const auto [r, K] = assemble(&part);
+        r_sum += r;
+        K_sum += K;
+      }
+      EXPECT_LE((r_sum - r_one).cwiseAbs().maxCoeff(), 1e-12 * r_one.cwiseAbs().maxCoeff());
+      EXPECT_LE((K_sum - K_one).cwiseAbs().maxCoeff(), 1e-12 * K_one.cwiseAbs().maxCoeff());
+    }
+  }
 }
 
 } // namespace

@@ -1,0 +1,73 @@
+#include "engine/assembly/partition.hpp"
+
+#include "engine/model/model.hpp"
+
+#include <fmt/format.h>
+#include <numeric>
+#include <stdexcept>
+
+namespace yarnsim {
+
+std::vector<NodePartition> partition_all(const Model& model, int ranks) {
+  if (ranks < 1)
+    throw std::invalid_argument(
+        fmt::format("partition: expected at least one process, found {}", ranks));
+  const int n = static_cast<int>(model.nodes.size());
+  // The bodies: nodes joined by elements (union-find, each root the smallest node).
+  std::vector<int> root(static_cast<std::size_t>(n));
+  std::iota(root.begin(), root.end(), 0);
+  const auto find = [&root](int i) {
+    while (root[i] != i)
+      i = root[i] = root[root[i]];
+    return i;
+  };
+  // Elements per first node, for the balance.
+  std::vector<long long> first_of(static_cast<std::size_t>(n) + 1, 0);
+  for (const auto& e : model.elements) {
+    ++first_of[static_cast<std::size_t>(e.nodes[0]) + 1];
+    for (int a : e.nodes) {
+      const int ra = find(a), rb = find(e.nodes[0]);
+      if (ra != rb)
+        root[std::max(ra, rb)] = std::min(ra, rb);
+    }
+  }
+  for (int i = 0; i < n; ++i)
+    first_of[i + 1] += first_of[i]; // elements whose first node is below i + 1
+  // A cut at node c splits no body when every node before c is in a body whose nodes all lie
+  // before c: c starts a new body and no earlier body reaches past it.
+  std::vector<int> last_of_body(static_cast<std::size_t>(n), -1);
+  for (int i = 0; i < n; ++i)
+    last_of_body[find(i)] = i;
+  std::vector<char> clean(static_cast<std::size_t>(n) + 1, 0);
+  clean[0] = clean[n] = 1;
+  int reach = -1; // the furthest node of the bodies met so far
+  for (int c = 0; c < n; ++c) {
+    reach = std::max(reach, last_of_body[find(c)]);
+    clean[c + 1] = reach == c;
+  }
+  const long long total = first_of[n];
+  std::vector<int> cut(static_cast<std::size_t>(ranks) + 1, n);
+  cut[0] = 0;
+  for (int r = 1; r < ranks; ++r) {
+    const long long target = total * r / ranks;
+    int c = static_cast<int>(std::lower_bound(first_of.begin(), first_of.end(), target) -
+                             first_of.begin());
+    c = std::clamp(c, cut[r - 1], n);
+    while (c < n && !clean[c])
+      ++c;
+    cut[r] = c;
+  }
+  std::vector<NodePartition> out(static_cast<std::size_t>(ranks));
+  for (int r = 0; r < ranks; ++r)
+    out[r] = {cut[r], cut[r + 1]};
+  return out;
+}
+
+NodePartition partition_nodes(const Model& model, int rank, int ranks) {
+  if (rank < 0 || rank >= ranks)
+    throw std::invalid_argument(
+        fmt::format("partition: expected a process in [0, {}), found {}", ranks, rank));
+  return partition_all(model, ranks)[static_cast<std::size_t>(rank)];
+}
+
+} // namespace yarnsim
