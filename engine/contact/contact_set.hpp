@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <tbb/blocked_range.h>
@@ -53,12 +54,19 @@ struct ContactPoint {
   /// Spline contact: the segment along the spline (0-based; segment i runs over the spline's
   /// control points i, i + 1, i + 2). Surface contact: the element (index into Model::elements).
   std::array<int, 2> segment{-1, -1};
+  /// The pair's segment ids within its definition (its place in the set's sorted work list):
+  /// points gathered over several processes are put back in this order.
+  std::array<int, 2> pair{-1, -1};
 };
 
 /// Figures of the last evaluation, over all its pairs.
 struct ContactSummary {
   int candidates = 0;
   int active = 0;
+  /// The active pairs counted as contact points before rounding to `active`: a spline pair 1, a
+  /// surface pair its share (a contact near a node, held by two pairs, counts once in all).
+  /// Parts (sets, processes) are summed before rounding (combine_summaries).
+  double active_share = 0;
   double max_penetration = 0;  ///< m, over active pairs (0 if none)
   double max_force = 0;        ///< N
   double potential = 0;        ///< elastic energy stored in the active pairs, J
@@ -288,6 +296,10 @@ public:
   /// forces are conjugate to their elastic gaps, so that the energy balance it checks holds;
   /// implicit steps take them at the contact points (contact::FrictionForce).
   virtual void set_explicit_path(bool /*explicit_path*/) {}
+  /// A process's share of a run over several (partition.hpp): from the next update_candidates
+  /// on, the work list holds only the pairs whose first node `owned` holds (none: every pair),
+  /// and a restore keeps only those. The candidate search stays whole.
+  virtual void set_owned(const std::optional<NodePartition>& owned) = 0;
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
   /// Node groups of the pairs of the last projection that are active or within reach (a

@@ -4,7 +4,9 @@
 #include "engine/contact/surface_contact_set.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
+#include <optional>
 
 namespace yarnsim {
 
@@ -38,10 +40,16 @@ void ContactStage::set_time(double t) {
 void ContactStage::set_explicit_path(bool explicit_path) {
   for (const auto& set : sets_)
     set->set_explicit_path(explicit_path);
+  // The explicit path projects every pair on every process (replicated).
+  const bool changed = explicit_path != explicit_path_;
+  explicit_path_ = explicit_path;
+  if (changed && partition_)
+    set_partition(partition_);
 }
 
 std::string ContactStage::project(const State& state, bool want_tangent,
                                   const ContactRates* rates) {
+  agreed_.reset();
   std::string veto;
   for (auto& set : sets_) {
     std::string why = set->project(state, want_tangent, rates);
@@ -73,6 +81,10 @@ std::vector<ContactCoupling> ContactStage::couplings() const {
   return out;
 }
 
+bool ContactStage::partitioned() const {
+  return partition_.has_value() && !explicit_path_;
+}
+
 void ContactStage::assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
                             const NodePartition* owned) const {
   for (const auto& set : sets_)
@@ -92,15 +104,14 @@ double ContactStage::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matr
   return limit;
 }
 
-ContactSummary ContactStage::summary() const {
-  if (sets_.size() == 1)
-    return sets_.front()->summary();
+ContactSummary combine_summaries(const std::vector<ContactSummary>& parts) {
+  if (parts.size() == 1)
+    return parts.front();
   ContactSummary out;
   out.min_gap = std::numeric_limits<double>::infinity();
-  for (const auto& set : sets_) {
-    const ContactSummary& s = set->summary();
+  for (const ContactSummary& s : parts) {
     out.candidates += s.candidates;
-    out.active += s.active;
+    out.active_share += s.active_share;
     out.max_penetration = std::max(out.max_penetration, s.max_penetration);
     out.max_force = std::max(out.max_force, s.max_force);
     out.potential += s.potential;
@@ -119,10 +130,43 @@ ContactSummary ContactStage::summary() const {
     out.min_gap = std::min(out.min_gap, s.min_gap);
     out.active_set = out.active_set * 0x9e3779b97f4a7c15ull + s.active_set;
   }
+  out.active = static_cast<int>(std::lround(out.active_share));
   return out;
 }
 
+ContactSummary ContactStage::local_summary() const {
+  std::vector<ContactSummary> parts;
+  for (const auto& set : sets_)
+    parts.push_back(set->summary());
+  return combine_summaries(parts);
+}
+
+ContactSummary ContactStage::summary() const {
+  return agreed_ ? *agreed_ : local_summary();
+}
+
+void ContactStage::set_partition(const std::optional<NodePartition>& owned) {
+  partition_ = owned;
+  for (auto& set : sets_)
+    set->set_owned(explicit_path_ ? std::nullopt : partition_);
+  agreed_.reset();
+}
+
+void ContactStage::agree(const ContactSummary& over_processes) {
+  agreed_ = over_processes;
+}
+
 std::vector<ContactPoint> ContactStage::points() const {
+  if (partitioned())
+    return gathered_points_;
+  return local_points();
+}
+
+void ContactStage::set_gathered_points(std::vector<ContactPoint> points) {
+  gathered_points_ = std::move(points);
+}
+
+std::vector<ContactPoint> ContactStage::local_points() const {
   std::vector<ContactPoint> out;
   for (const auto& set : sets_) {
     const auto p = set->points();

@@ -5,6 +5,7 @@
 #include "engine/contact/contact_set.hpp"
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,11 @@ namespace yarnsim {
 
 class SplineContactSet;
 class SurfaceContactSet;
+
+/// The figures of several parts (sets, processes) as one: counts, forces and energies summed,
+/// penetration and force the largest, the gap the smallest, the active-set fingerprints folded
+/// in order, the first part's off-end yarns that has any.
+ContactSummary combine_summaries(const std::vector<ContactSummary>& parts);
 
 /// All contact sets of a model: spline contacts first, then surface contacts. Each call runs the
 /// sets in that order, so results do not depend on scheduling.
@@ -50,7 +56,25 @@ public:
   double potential() const { return summary().potential; }
   double min_gap() const { return summary().min_gap; }
   double total_force() const { return summary().total_force; }
+  /// The active points, in the order of the sets and their pairs. Over several processes
+  /// (partitioned()): the gathered points of the last converged state (set_gathered_points).
   std::vector<ContactPoint> points() const;
+
+  /// A run over several processes (MPI, partition.hpp): each set projects only the pairs whose
+  /// first node `owned` holds (ContactSet::set_owned) on implicit steps; explicit steps project
+  /// every pair on every process. None: every pair (one process).
+  void set_partition(const std::optional<NodePartition>& owned);
+  /// Whether the sets now project this process's pairs only (a partition, on an implicit step).
+  bool partitioned() const;
+  /// This process's own figures (its pairs') and points, which a run over several processes
+  /// combines (Simulation): combine_summaries, gathered and sorted points.
+  ContactSummary local_summary() const;
+  std::vector<ContactPoint> local_points() const;
+  /// The processes' combined figures of this evaluation: summary() returns them until the next
+  /// projection.
+  void agree(const ContactSummary& over_processes);
+  /// The processes' points of the last converged state, for points().
+  void set_gathered_points(std::vector<ContactPoint> points);
   /// "spline", "surface" or "spline and surface".
   std::string formulations() const;
   /// The spline contact set, or null (checkpoints save and restore it).
@@ -63,6 +87,10 @@ public:
 private:
   std::vector<std::unique_ptr<ContactSet>> sets_;
   std::vector<std::string> names_;
+  std::optional<NodePartition> partition_;
+  bool explicit_path_ = false;
+  std::optional<ContactSummary> agreed_;
+  std::vector<ContactPoint> gathered_points_;
 };
 
 } // namespace yarnsim

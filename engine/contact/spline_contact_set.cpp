@@ -181,9 +181,17 @@ contact::AllAngleOptions SplineContactSet::all_angle_of(const Definition& d, dou
   return all_angle;
 }
 
+bool SplineContactSet::owned_by(const NodePartition& part, const Definition& d,
+                                const broadphase::CandidatePair& p) const {
+  const auto n = nodes_of(d, p);
+  const bool even = (d.spline[p.first] + d.spline[p.second]) % 2 == 0;
+  return part.owns(n[even ? 0 : 3]);
+}
+
 bool SplineContactSet::update_candidates(const State& state) {
   const Eigen::Matrix3Xd& x = state.x;
-  bool changed = work_.empty() && candidates_version_ == 0;
+  bool changed = (work_.empty() && candidates_version_ == 0) || rebuild_work_;
+  rebuild_work_ = false;
   for (std::size_t k = 0; k < definitions_.size(); ++k) {
     Definition& d = *definitions_[k];
     for (std::size_t s = 0; s < d.spline.size(); ++s) {
@@ -207,7 +215,8 @@ bool SplineContactSet::update_candidates(const State& state) {
   assembly_slots_.clear();
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
-      work_.push_back({static_cast<int>(k), p, {}});
+      if (owns(*definitions_[k], p))
+        work_.push_back({static_cast<int>(k), p, {}});
   link_warm_starts(work_, committed_);
   return true;
 }
@@ -447,7 +456,7 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   find_active_slots(
       work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_, assembly_slots_,
       [&](const Work& item) {
-        return !owned || owned->owns(nodes_of(*definitions_[item.definition], item.pair)[0]);
+        return !owned || owned_by(*owned, *definitions_[item.definition], item.pair);
       },
       [&](const Work& item, int* slots) {
         assembler.translation_block_slots(nodes_of(*definitions_[item.definition], item.pair),
@@ -725,6 +734,7 @@ std::vector<ContactPoint> SplineContactSet::points() const {
     p.definition = w.definition;
     p.body = {d.spline[w.pair.first], d.spline[w.pair.second]};
     p.segment = {d.segment[w.pair.first], d.segment[w.pair.second]};
+    p.pair = {w.pair.first, w.pair.second};
     const std::size_t k = static_cast<std::size_t>(&w - work_.data());
     if (any_friction_ && friction_[k].active) {
       const contact::SplineFrictionResult& f = friction_[k];
@@ -848,6 +858,10 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
   line_work_.clear();
   line_friction_.clear();
   summarise();
+  // A share of the pairs (set_owned): the next search's work list keeps this process's alone
+  // (the summary above is the whole snapshot's, as saved).
+  if (owned_)
+    rebuild_work_ = true;
 }
 
 bool SplineContactSet::past_curve_end(const Definition& d, int id, double xi) const {
@@ -884,6 +898,7 @@ void SplineContactSet::summarise() {
     if (!r.active)
       continue;
     ++summary_.active;
+    summary_.active_share += 1;
     summary_.active_set =
         fold_active_pair(summary_.active_set | 1, w.definition, w.pair.first, w.pair.second);
     summary_.max_penetration = std::max(summary_.max_penetration, r.penetration);

@@ -48,6 +48,10 @@ public:
     friction_force_ = explicit_path ? contact::FrictionForce::ConjugateToTheGap
                                     : contact::FrictionForce::AtContactPoints;
   }
+  void set_owned(const std::optional<NodePartition>& owned) override {
+    owned_ = owned;
+    rebuild_work_ = true;
+  }
   int candidates_version() const override { return candidates_version_; }
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;
@@ -211,6 +215,20 @@ private:
   double time_ = 0; ///< s, of the configurations projected (the compaction's time)
   /// How the point friction's force reaches the positions: set_explicit_path.
   contact::FrictionForce friction_force_ = contact::FrictionForce::AtContactPoints;
+  /// This process's share (set_owned): the pairs whose first node it holds; none: all.
+  std::optional<NodePartition> owned_;
+  bool rebuild_work_ = false; ///< the work list must follow a new share
+  /// Whether `part` holds pair p of definition d: the owner of one of its two bodies (whole on
+  /// one process: partition.hpp), the first where the bodies' indices have an even sum, else the
+  /// second. Every pair between two bodies has one owner (the hand-over to a neighbouring pair
+  /// and the split contacts near a node stay on it), and the pairs of a weave, warp-weft
+  /// crossings, spread over the warp's and the weft's processes.
+  bool owned_by(const NodePartition& part, const Definition& d,
+                const broadphase::CandidatePair& p) const;
+  /// Whether this process projects pair p of definition d (set_owned).
+  bool owns(const Definition& d, const broadphase::CandidatePair& p) const {
+    return !owned_ || owned_by(*owned_, d, p);
+  }
   ContactSummary summary_;
 };
 

@@ -141,8 +141,16 @@ contact::SuperEllipticalCylinder SurfaceContactSet::cylinder(const Definition& d
   return {node(el.nodes[0]), node(el.nodes[2]), sections_[d.surface[s]], last, &previous};
 }
 
+bool SurfaceContactSet::owned_by(const NodePartition& part, const Definition& d,
+                                 const broadphase::CandidatePair& p) const {
+  const auto n = nodes_of(d, p);
+  const bool even = (d.surface[p.first] + d.surface[p.second]) % 2 == 0;
+  return part.owns(n[even ? 0 : 2]);
+}
+
 bool SurfaceContactSet::update_candidates(const State& state) {
-  bool changed = work_.empty() && candidates_version_ == 0;
+  bool changed = (work_.empty() && candidates_version_ == 0) || rebuild_work_;
+  rebuild_work_ = false;
   // The boxes hold the sections as they are oriented, and the end windows of the options
   // project() uses.
   const double window = contact::SurfaceContactOptions{}.end_window;
@@ -160,7 +168,8 @@ bool SurfaceContactSet::update_candidates(const State& state) {
   assembly_slots_.clear();
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
-      work_.push_back({static_cast<int>(k), p, {}});
+      if (owns(*definitions_[k], p))
+        work_.push_back({static_cast<int>(k), p, {}});
   link_warm_starts(work_, committed_);
   by_second_.resize(work_.size());
   for (std::size_t i = 0; i < by_second_.size(); ++i)
@@ -370,6 +379,7 @@ void SurfaceContactSet::summarise() {
       ++summary_.frictionless;
   }
   summary_.active = static_cast<int>(std::lround(active_share));
+  summary_.active_share = active_share;
   summary_.dissipation = dissipated_;
   if (!any_friction_)
     return;
@@ -469,7 +479,7 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
   find_active_slots(
       work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_, assembly_slots_,
       [&](const Work& item) {
-        return !owned || owned->owns(nodes_of(*definitions_[item.definition], item.pair)[0]);
+        return !owned || owned_by(*owned, *definitions_[item.definition], item.pair);
       },
       [&](const Work& item, int* slots) {
         assembler.surface_pair_block_slots(nodes_of(*definitions_[item.definition], item.pair),
@@ -596,6 +606,7 @@ std::vector<ContactPoint> SurfaceContactSet::points() const {
     p.body = {a, b};
     p.segment = {model_.surfaces[a].elements[d.position[w.pair.first]],
                  model_.surfaces[b].elements[d.position[w.pair.second]]};
+    p.pair = {w.pair.first, w.pair.second};
     const std::size_t k = static_cast<std::size_t>(&w - work_.data());
     if (any_friction_ && friction_[k].active) {
       const contact::SurfaceFrictionResult& f = friction_[k];
@@ -726,6 +737,10 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
     if (any_torsional_)
       torsion_.assign(work_.size(), {});
   }
+  // A share of the pairs (set_owned): the next search's work list keeps this process's alone
+  // (the summary above is the whole snapshot's, as saved).
+  if (owned_)
+    rebuild_work_ = true;
 }
 
 double SurfaceContactSet::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,

@@ -39,6 +39,10 @@ public:
                       const ContactRates* rates = nullptr) override;
   /// Whether a definition has tangential damping (it needs the rates of dynamic steps).
   bool damped() const { return damped_; }
+  void set_owned(const std::optional<NodePartition>& owned) override {
+    owned_ = owned;
+    rebuild_work_ = true;
+  }
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;
@@ -162,6 +166,20 @@ private:
   std::vector<contact::SurfaceTorsionalFrictionResult> torsion_;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   int candidates_version_ = 0;
+  /// This process's share (set_owned): the pairs whose first node it holds; none: all.
+  std::optional<NodePartition> owned_;
+  bool rebuild_work_ = false; ///< the work list must follow a new share
+  /// Whether `part` holds pair p of definition d: the owner of one of its two bodies (whole on
+  /// one process: partition.hpp), the first where the bodies' indices have an even sum, else the
+  /// second. Every pair between two bodies has one owner (the hand-over to a neighbouring pair
+  /// and the split contacts near a node stay on it), and the pairs of a weave, warp-weft
+  /// crossings, spread over the warp's and the weft's processes.
+  bool owned_by(const NodePartition& part, const Definition& d,
+                const broadphase::CandidatePair& p) const;
+  /// Whether this process projects pair p of definition d (set_owned).
+  bool owns(const Definition& d, const broadphase::CandidatePair& p) const {
+    return !owned_ || owned_by(*owned_, d, p);
+  }
   ContactSummary summary_;
 };
 

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <array>
 #include <cstring>
 #include <system_error>
@@ -143,6 +144,7 @@ void write_surface_contact(hid_t parent, const SurfaceContactSet::Snapshot& c) {
   const ContactSummary& m = c.summary;
   h5::write_int_attribute(g, "summary_candidates", m.candidates);
   h5::write_int_attribute(g, "summary_active", m.active);
+  h5::write_double_attribute(g, "summary_active_share", m.active_share);
   h5::write_double_attribute(g, "summary_max_penetration", m.max_penetration);
   h5::write_double_attribute(g, "summary_max_force", m.max_force);
   h5::write_double_attribute(g, "summary_potential", m.potential);
@@ -383,6 +385,12 @@ SurfaceContactSet::Snapshot read_surface_contact(hid_t parent) {
   ContactSummary& m = c.summary;
   m.candidates = h5::read_int_attribute(g, "summary_candidates");
   m.active = h5::read_int_attribute(g, "summary_active");
+  // Written since the active pairs' shares are summed over processes (ContactSummary); the
+  // rounded count before.
+  const std::vector<std::string> names = h5::attribute_names(g);
+  m.active_share = std::find(names.begin(), names.end(), "summary_active_share") != names.end()
+                       ? h5::read_double_attribute(g, "summary_active_share")
+                       : m.active;
   m.max_penetration = h5::read_double_attribute(g, "summary_max_penetration");
   m.max_force = h5::read_double_attribute(g, "summary_max_force");
   m.potential = h5::read_double_attribute(g, "summary_potential");

@@ -7,6 +7,8 @@
 
 #include "engine/solver/checkpoint.hpp"
 
+#include "engine/solver/distributed.hpp"
+
 #include <fmt/format.h>
 #include <stdexcept>
 
@@ -40,10 +42,12 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.explicit_status = explicit_status_;
   if (explicit_)
     c.explicit_progress = explicit_progress();
+  // Over several processes, the processes' histories gathered at the last commit.
+  const bool gathered = contact_ && contact_->partitioned();
   if (contact_ && contact_->spline())
-    c.contact = contact_->spline()->snapshot();
+    c.contact = gathered ? *gathered_spline_ : contact_->spline()->snapshot();
   if (contact_ && contact_->surface())
-    c.surface_contact = contact_->surface()->snapshot();
+    c.surface_contact = gathered ? *gathered_surface_ : contact_->surface()->snapshot();
   c.pattern_groups = assembler_->couplings();
   c.ordering = solver_->ordering();
   return c;
@@ -110,10 +114,33 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
     resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);
   if (contact_)
     contact_->set_time(state_.time);
-  if (spline)
-    contact_->spline()->restore(*from.contact);
-  if (surface)
-    contact_->surface()->restore(*from.surface_contact);
+  // Over several processes every one restores the whole snapshot and keeps its own pairs from
+  // the next search on (ContactSet::set_owned); the friction dissipated so far stays with the
+  // first process alone, so that the sum over them is the saved one.
+  const bool partitioned = contact_ && contact_->partitioned();
+  const bool first = distributed::rank() == 0;
+  if (spline) {
+    SplineContactSet::Snapshot snapshot = *from.contact;
+    if (partitioned && !first)
+      snapshot.dissipated = 0;
+    contact_->spline()->restore(snapshot);
+  }
+  if (surface) {
+    SurfaceContactSet::Snapshot snapshot = *from.surface_contact;
+    if (partitioned && !first)
+      snapshot.dissipated = snapshot.summary.dissipation = 0;
+    contact_->surface()->restore(snapshot);
+  }
+  if (partitioned) {
+    // Each process now holds the whole saved list: its figures, points and snapshots are the
+    // run's (the dissipation summed as above).
+    ContactSummary s = contact_->local_summary();
+    distributed::sum(&s.dissipation, 1);
+    contact_->agree(s);
+    contact_->set_gathered_points(contact_->local_points());
+    gathered_spline_ = from.contact;
+    gathered_surface_ = from.surface_contact;
+  }
 
   for (const auto& g : from.pattern_groups)
     for (int node : g.nodes)

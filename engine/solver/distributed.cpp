@@ -58,6 +58,51 @@ double largest(double local) {
   return all;
 }
 
+double smallest(double local) {
+  if (size() == 1)
+    return local;
+  double all = local;
+  MPI_Allreduce(&local, &all, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+  return all;
+}
+
+std::vector<char> gather_bytes(const void* bytes, std::size_t n) {
+  const char* begin = static_cast<const char*>(bytes);
+  if (size() == 1)
+    return std::vector<char>(begin, begin + n);
+  // Counts in bytes as MPI ints: each process's share below 2 GiB.
+  const int p = size();
+  const int mine = static_cast<int>(n);
+  std::vector<int> counts(static_cast<std::size_t>(p)), offsets(static_cast<std::size_t>(p), 0);
+  MPI_Allgather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  long long total = 0;
+  for (int r = 0; r < p; ++r) {
+    offsets[r] = static_cast<int>(total);
+    total += counts[r];
+  }
+  std::vector<char> out(static_cast<std::size_t>(total));
+  MPI_Allgatherv(begin, mine, MPI_BYTE, out.data(), counts.data(), offsets.data(), MPI_BYTE,
+                 MPI_COMM_WORLD);
+  return out;
+}
+
+std::string first_message(const std::string& local) {
+  if (size() == 1)
+    return local;
+  // Each process's message with its length ahead; the first non-empty one in rank order.
+  const std::vector<char> all = gather_bytes(local.data(), local.size());
+  const int mine = static_cast<int>(local.size());
+  std::vector<int> lengths(static_cast<std::size_t>(size()));
+  MPI_Allgather(&mine, 1, MPI_INT, lengths.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  std::size_t at = 0;
+  for (const int length : lengths) {
+    if (length > 0)
+      return std::string(all.data() + at, static_cast<std::size_t>(length));
+    at += static_cast<std::size_t>(length);
+  }
+  return {};
+}
+
 int ranks_on_this_machine() {
   if (size() == 1)
     return 1;
@@ -80,6 +125,16 @@ bool any(bool local) {
 }
 void sum(double*, std::size_t) {}
 double largest(double local) {
+  return local;
+}
+double smallest(double local) {
+  return local;
+}
+std::vector<char> gather_bytes(const void* bytes, std::size_t n) {
+  const char* begin = static_cast<const char*>(bytes);
+  return std::vector<char>(begin, begin + n);
+}
+std::string first_message(const std::string& local) {
   return local;
 }
 int ranks_on_this_machine() {

@@ -8,6 +8,9 @@
 // (a signal) is agreed here. docs/formulation.md, "Runs over MPI".
 
 #include <cstddef>
+#include <cstring>
+#include <string>
+#include <vector>
 
 namespace yarnsim::distributed {
 
@@ -32,6 +35,27 @@ void sum(double* data, std::size_t n);
 
 /// The largest of `local` over the processes (collective); `local` in a one-process run.
 double largest(double local);
+/// The smallest of `local` over the processes (collective); `local` in a one-process run.
+double smallest(double local);
+
+/// Every process's `bytes` (n of them), concatenated in rank order, on every process
+/// (collective); a copy of them in a one-process run.
+std::vector<char> gather_bytes(const void* bytes, std::size_t n);
+
+/// Every process's `local` values, concatenated in rank order, on every process (collective).
+/// T is copied as bytes: plain values and fixed-size Eigen objects.
+template <class T>
+std::vector<T> gather(const std::vector<T>& local) {
+  const std::vector<char> bytes = gather_bytes(local.data(), local.size() * sizeof(T));
+  std::vector<T> out(bytes.size() / sizeof(T));
+  if (!bytes.empty())
+    std::memcpy(static_cast<void*>(out.data()), bytes.data(), bytes.size());
+  return out;
+}
+
+/// The message of the lowest-ranked process whose `local` is not empty, on every process
+/// (collective); empty when every process's is. `local` in a one-process run.
+std::string first_message(const std::string& local);
 
 /// Processes of this run on this machine (the node's share of the cores); 1 without MPI.
 int ranks_on_this_machine();

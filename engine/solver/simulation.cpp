@@ -118,6 +118,8 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   }
   solver_ = make_linear_solver(kind, symmetric_tangent);
   contact_ = ContactStage::of(model);
+  if (contact_ && partition_)
+    contact_->set_partition(partition_);
   solver_name_ = solver_->name();
 
   // Reference triads, lumped mass and rotary inertia (1/6, 2/3, 1/6 of each element).
@@ -212,7 +214,10 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   if (contact_) {
     // The clearance each formulation sees before loading (the spline passes inside the
     // interior nodes, so it differs from the nominal gap between the yarn surfaces).
-    contact_->evaluate(state_, false);
+    // (Its veto is not looked at: the projections of the reference configuration serve its
+    // clearance only.)
+    agree_contact(contact_->evaluate(state_, false));
+    gather_contact();
     initial_clearance_ = contact_->min_gap();
   }
 }
@@ -304,7 +309,8 @@ struct Simulation::IterationGraph {
                    // The couplings the pairs need, sorted here beside the beam assembly; the
                    // pattern grows (if it must) after it (contact_assembly).
                    s.iteration_.couplings.clear();
-                   if (s.iteration_.want_tangent && s.iteration_.veto.empty()) {
+                   if (s.iteration_.want_tangent && s.iteration_.veto.empty() &&
+                       !s.contact_->partitioned()) {
                      s.iteration_.couplings = s.contact_->couplings();
                      std::sort(s.iteration_.couplings.begin(), s.iteration_.couplings.end());
                    }
@@ -331,7 +337,10 @@ struct Simulation::IterationGraph {
         contact_assembly(graph,
                          [&s](const tbb::flow::continue_msg&) {
                            const auto t0 = std::chrono::steady_clock::now();
-                           if (s.contact_ && s.iteration_.veto.empty()) {
+                           // Over several processes after the graph (evaluate()): the couplings
+                           // and vetoes are agreed first, by MPI calls of the main thread.
+                           if (s.contact_ && s.iteration_.veto.empty() &&
+                               !s.contact_->partitioned()) {
                              // The pairs the narrow phase found active or within reach must be in
                              // the pattern; a pattern that grows here keeps the beams' entries
                              // already assembled.
@@ -472,6 +481,23 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
   stage_times_.iteration_graph +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - graph_start).count();
   Evaluation out;
+  if (contact_ && contact_->partitioned()) {
+    // Over several processes each projected its own pairs: the vetoes and figures are agreed,
+    // the pattern grows by every process's couplings (so the patterns stay the same), and each
+    // adds its pairs, after the beams as in the graph.
+    const auto t_agree = std::chrono::steady_clock::now();
+    iteration_.veto = agree_contact(iteration_.veto);
+    if (iteration_.veto.empty()) {
+      if (want_tangent) {
+        std::vector<ContactCoupling> couplings = distributed::gather(contact_->couplings());
+        std::sort(couplings.begin(), couplings.end());
+        assembler_->ensure_couplings(std::move(couplings));
+      }
+      contact_->assemble(residual, *assembler_, want_tangent, &*partition_);
+    }
+    stage_times_.other_assembly +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_agree).count();
+  }
   out.veto = iteration_.veto;
   if (!out.veto.empty())
     return out;
@@ -724,8 +750,54 @@ void Simulation::start_mixed_stresses(const Eigen::VectorXd& delta, bool from_co
   mixed_.active = true;
 }
 
+std::string Simulation::agree_contact(const std::string& veto) {
+  if (!contact_ || !contact_->partitioned())
+    return veto;
+  const std::vector<ContactSummary> parts =
+      distributed::gather(std::vector<ContactSummary>{contact_->local_summary()});
+  contact_->agree(combine_summaries(parts));
+  return distributed::first_message(veto);
+}
+
+void Simulation::gather_contact() {
+  gathered_spline_.reset();
+  gathered_surface_.reset();
+  if (!contact_ || !contact_->partitioned())
+    return;
+  // The points, in the one-process order: by set (spline first), definition and pair.
+  std::vector<ContactPoint> points = distributed::gather(contact_->local_points());
+  std::sort(points.begin(), points.end(), [](const ContactPoint& a, const ContactPoint& b) {
+    return std::tie(a.surface, a.definition, a.pair) < std::tie(b.surface, b.definition, b.pair);
+  });
+  contact_->set_gathered_points(std::move(points));
+  // The histories and last results, each list sorted by its key as one process keeps it.
+  const auto merged = [](const auto& local) {
+    auto all = distributed::gather(local);
+    std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.key < b.key; });
+    return all;
+  };
+  if (const SplineContactSet* spline = contact_->spline()) {
+    SplineContactSet::Snapshot s = spline->snapshot();
+    s.committed = merged(s.committed);
+    s.line_committed = merged(s.line_committed);
+    s.pairs = merged(s.pairs);
+    distributed::sum(&s.dissipated, 1);
+    gathered_spline_ = std::move(s);
+  }
+  if (const SurfaceContactSet* surface = contact_->surface()) {
+    SurfaceContactSet::Snapshot s = surface->snapshot();
+    s.committed = merged(s.committed);
+    s.pairs = merged(s.pairs);
+    distributed::sum(&s.dissipated, 1);
+    s.summary = contact_->summary(); // the processes' (as one process saves its own)
+    gathered_surface_ = std::move(s);
+  }
+}
+
 void Simulation::prune_couplings() {
-  const std::vector<ContactCoupling> needed = contact_->couplings();
+  std::vector<ContactCoupling> needed = contact_->couplings();
+  if (contact_->partitioned()) // every process's pairs: the patterns stay the same
+    needed = distributed::gather(needed);
   if (4 * assembler_->couplings().size() > 5 * needed.size() + 64)
     assembler_->set_couplings(needed);
 }
@@ -1035,9 +1107,11 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       });
       if (from_converged)
         predictor_motion_ = state_.x - state_.x_n;
-      const double limit =
+      double limit =
           contact_->closing_limit(correction_motion_, from_converged ? &predictor_motion_ : nullptr,
                                   options_.closing_allowance);
+      if (contact_->partitioned())
+        limit = distributed::smallest(limit);
       lambda = std::min(lambda, limit);
     }
     if (options_.mixed_integration_point)
@@ -1129,6 +1203,7 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
     }
   if (contact_) {
     contact_->commit();
+    gather_contact(); // over several processes: the points and histories, for output
     // The pattern grows with every pair within reach an iteration meets, and attempts that
     // wandered (or failed) leave couplings the converged state does not need: with touching
     // yarns they grew the factor tenfold and each factorisation forty times slower

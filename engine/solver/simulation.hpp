@@ -7,6 +7,8 @@
 #include "engine/assembly/assembler.hpp"
 #include "engine/assembly/partition.hpp"
 #include "engine/contact/contact_stage.hpp"
+#include "engine/contact/spline_contact_set.hpp"
+#include "engine/contact/surface_contact_set.hpp"
 #include "engine/model/model.hpp"
 #include "engine/solver/linear_solver.hpp"
 #include "engine/state/state.hpp"
@@ -242,6 +244,13 @@ private:
   /// Drops the pattern's contact couplings that the last evaluation's pairs do not need
   /// (ContactSet::couplings) when they are more than a quarter of those needed.
   void prune_couplings();
+  /// Over several processes (ContactStage::partitioned()): the veto of the lowest-ranked process
+  /// that has one, and the processes' combined contact figures (ContactStage::agree); `veto`
+  /// itself otherwise. Collective: every process calls it after each projection.
+  std::string agree_contact(const std::string& veto);
+  /// Over several processes: the contact points (for output) and histories (for checkpoints)
+  /// of the last converged state, gathered from the processes. Collective, after each commit.
+  void gather_contact();
   bool stop_requested() const;
   [[noreturn]] void throw_interrupted() const;
   void commit(const SolutionStep& step, double dt, double t_new);
@@ -310,6 +319,9 @@ private:
   /// This process's share of the assembly over several processes (partition.hpp); none (every
   /// element, pair and node) in a one-process run.
   std::optional<NodePartition> partition_;
+  /// The processes' contact snapshots of the last commit (gather_contact), for checkpoint().
+  std::optional<SplineContactSet::Snapshot> gathered_spline_;
+  std::optional<SurfaceContactSet::Snapshot> gathered_surface_;
   double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();
 
   struct IterationGraph;

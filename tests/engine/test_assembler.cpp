@@ -291,12 +291,14 @@ TEST(ContactAssembly, SlotsAreLookedUpAgainOnlyForNewPairsOrANewPattern) {
   EXPECT_EQ(looked_up, 6);
 }
 
-TEST(Partition, EveryElementAndContactPairIsAssembledByExactlyOneProcess) {
-  // A run over several processes (partition.hpp): each assembles the elements and contact pairs
-  // whose first node it owns, and evaluate() sums their residuals and matrices. Over any number
-  // of processes the sums are the one-process assembly's, so no element or pair is left out or
-  // assembled twice. On 2 processes the paper's fabric splits into its warp (nodes of the first
-  // 6 yarns) and its weft, so every crossing pair couples nodes of both processes.
+TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
+  // A run over several processes (partition.hpp): each projects and assembles the contact pairs
+  // whose first node it owns (ContactStage::set_partition) and the elements whose first node it
+  // owns, and the run combines their figures and points and sums their residuals and matrices
+  // (Simulation::evaluate). Over any number of processes those are the one-process ones, so no
+  // pair is left out or found twice. On 2 processes the paper's fabric splits into its warp
+  // (nodes of the first 6 yarns) and its weft, so every crossing pair couples nodes of both; the
+  // pairs spread over the two about evenly (SplineContactSet::owned_by).
   for (const char* deck : {"biaxial-k1.toml", "biaxial-surface-k1.toml"}) {
     SCOPED_TRACE(deck);
     Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / deck);
@@ -305,22 +307,22 @@ TEST(Partition, EveryElementAndContactPairIsAssembledByExactlyOneProcess) {
     sim.run();
     const State& state = sim.state();
     const int n = state.n_nodes();
-    const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
-    stage->update_candidates(state);
-    ASSERT_EQ(stage->evaluate(state, true), "");
-    ASSERT_GE(stage->active(), 36);
+    const std::unique_ptr<ContactStage> whole = ContactStage::of(m);
+    ASSERT_EQ(whole->evaluate(state, true), "");
+    ASSERT_GE(whole->active(), 36);
+    const std::vector<ContactPoint> points_one = whole->points();
     Assembler assembler(m, std::vector<char>(static_cast<std::size_t>(6 * n), 0));
-    assembler.ensure_couplings(stage->couplings());
-    const auto assemble = [&](const NodePartition* owned) {
+    assembler.ensure_couplings(whole->couplings());
+    const auto assemble = [&](const ContactStage& stage, const NodePartition* owned) {
       Eigen::VectorXd r = Eigen::VectorXd::Zero(6 * n);
       assembler.zero_matrix();
       assembler.add_beams(state, r, true, {}, nullptr, owned);
-      stage->assemble(r, assembler, true, owned);
+      stage.assemble(r, assembler, true, owned);
       const SparseMatrix& K = assembler.matrix();
       return std::pair{
           r, Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(K.valuePtr(), K.nonZeros()))};
     };
-    const auto [r_one, K_one] = assemble(nullptr);
+    const auto [r_one, K_one] = assemble(*whole, nullptr);
     for (const int ranks : {2, 3, 5}) {
       SCOPED_TRACE(ranks);
       const std::vector<NodePartition> parts = partition_all(m, ranks);
@@ -329,8 +331,9 @@ TEST(Partition, EveryElementAndContactPairIsAssembledByExactlyOneProcess) {
       EXPECT_EQ(parts.back().last, n);
       for (int k = 0; k + 1 < ranks; ++k)
         EXPECT_EQ(parts[k].last, parts[k + 1].first);
-      if (ranks == 2)
+      if (ranks == 2) {
         EXPECT_EQ(parts[0].last, n / 2); // the warp's 6 yarns, then the weft's
+      }
       // Whole yarns: every element's nodes on one process.
       for (const auto& e : m.elements) {
         int owner = 0;
@@ -341,11 +344,39 @@ TEST(Partition, EveryElementAndContactPairIsAssembledByExactlyOneProcess) {
       }
       Eigen::VectorXd r_sum = Eigen::VectorXd::Zero(6 * n),
                       K_sum = Eigen::VectorXd::Zero(K_one.size());
+      std::vector<ContactSummary> summaries;
+      std::vector<ContactPoint> points;
       for (const NodePartition& part : parts) {
-        const auto [r, K] = assemble(&part);
+        const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
+        stage->set_partition(part);
+        ASSERT_TRUE(stage->partitioned());
+        ASSERT_EQ(stage->evaluate(state, true), "");
+        summaries.push_back(stage->local_summary());
+        const std::vector<ContactPoint> own = stage->local_points();
+        points.insert(points.end(), own.begin(), own.end());
+        const auto [r, K] = assemble(*stage, &part);
         r_sum += r;
         K_sum += K;
       }
+      // Found once: every active pair on one process.
+      const ContactSummary combined = combine_summaries(summaries);
+      if (ranks == 2) {
+        for (const ContactSummary& s : summaries)
+          EXPECT_GE(s.active_share, 0.4 * whole->active());
+      }
+      EXPECT_EQ(combined.candidates, whole->candidates());
+      EXPECT_EQ(combined.active, whole->active());
+      EXPECT_NEAR(combined.total_force, whole->total_force(), 1e-12 * whole->total_force());
+      ASSERT_EQ(points.size(), points_one.size());
+      std::sort(points.begin(), points.end(), [](const ContactPoint& a, const ContactPoint& b) {
+        return std::tie(a.surface, a.definition, a.pair) <
+               std::tie(b.surface, b.definition, b.pair);
+      });
+      for (std::size_t k = 0; k < points.size(); ++k) {
+        EXPECT_EQ(points[k].pair, points_one[k].pair);
+        EXPECT_EQ(points[k].force, points_one[k].force);
+      }
+      // Assembled once: the sums are the one-process assembly.
       EXPECT_LE((r_sum - r_one).cwiseAbs().maxCoeff(), 1e-12 * r_one.cwiseAbs().maxCoeff());
       EXPECT_LE((K_sum - K_one).cwiseAbs().maxCoeff(), 1e-12 * K_one.cwiseAbs().maxCoeff());
     }

@@ -2,8 +2,9 @@
 # mpirun -np 1, 2 and 3 (oversubscribed) on the paper's 6 x 6 biaxial test and a 12 x 12 weave:
 # the same curves, monitor rows, positions and contact forces at every step as the one-process
 # run of the oneTBB path (`ldlt`), within 1e-10 relative, with the solver auto takes over MPI
-# (MUMPS's LDL^T) and with PETSc's (`petsc`); a friction run (MUMPS's LU, PETSc's) within 1e-10
-# of UMFPACK's and an explicit run bitwise on 2 processes. Only rank 0 speaks: one start line,
+# (MUMPS's LDL^T) and with PETSc's (`petsc`); a friction run (MUMPS's LU, PETSc's), the surface
+# contact examples and a frictional run restarted on another number of processes within 1e-10 of
+# UMFPACK's, and an explicit run bitwise on 2 processes. Only rank 0 speaks: one start line,
 # one done line.
 # Usage: ranks.sh YARNSIM REPO WORKDIR
 set -u
@@ -55,6 +56,27 @@ mpi 2 run "$repo/examples/biaxial-k1-friction.toml" -o biaxial-k1-friction-np2-p
   { echo "FAIL biaxial-k1-friction over 2 processes with petsc failed"; fail=1; }
 "$python" "$compare" biaxial-k1-friction-ref biaxial-k1-friction-np2-petsc 1e-10 ||
   { echo "FAIL biaxial-k1-friction-np2-petsc: differs from the one-process run"; fail=1; }
+
+# Surface contact, whose pairs near a node share their contact with the neighbouring element's
+# pair: over 3 processes (the shares' sum across processes) and, with friction, over 2, against
+# UMFPACK's one-process run. And a frictional run stopped on 2 processes and restarted on 3,
+# whose pairs' histories each process saved for its own pairs (gathered at every commit).
+for r in "biaxial-surface-k1 3" "biaxial-surface-k1-friction 2"; do
+  set -- $r
+  "$yarnsim" run "$repo/examples/$1.toml" -o "$1-ref" -q --linear-solver lu > "$1-ref.log" 2>&1 ||
+    { echo "FAIL $1: the one-process run failed"; cat "$1-ref.log"; fail=1; continue; }
+  mpi "$2" run "$repo/examples/$1.toml" -o "$1-np$2" -q > "$1-np$2.log" 2>&1 ||
+    { echo "FAIL $1 over $2 processes failed"; cat "$1-np$2.log"; fail=1; continue; }
+  "$python" "$compare" "$1-ref" "$1-np$2" 1e-10 || { echo "FAIL $1-np$2: differs from the one-process run"; fail=1; }
+done
+mpi 2 run "$repo/examples/biaxial-k1-friction.toml" -o friction-2-then-3 -q --stop-after 20 \
+  > friction-2-then-3.log 2>&1
+[ $? -eq 130 ] || { echo "FAIL: the frictional run stopped after 20 increments did not exit 130"; cat friction-2-then-3.log; fail=1; }
+mpi 3 run "$repo/examples/biaxial-k1-friction.toml" --restart friction-2-then-3 -q \
+  >> friction-2-then-3.log 2>&1 ||
+  { echo "FAIL: the frictional run's restart over 3 processes failed"; cat friction-2-then-3.log; fail=1; }
+"$python" "$compare" biaxial-k1-friction-ref friction-2-then-3 1e-10 ||
+  { echo "FAIL friction-2-then-3: differs from the one-process run"; fail=1; }
 
 # What the runs used: MUMPS over MPI by default, PETSc where asked.
 for r in w12-np2-auto:mumps w6-np3-petsc:petsc biaxial-k1-friction-np2:mumps \
