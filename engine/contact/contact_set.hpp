@@ -300,6 +300,10 @@ public:
   /// on, the work list holds only the pairs whose first node `owned` holds (none: every pair),
   /// and a restore keeps only those. The candidate search stays whole.
   virtual void set_owned(const std::optional<NodePartition>& owned) = 0;
+  /// Forgets the friction dissipated over the committed increments (a process of a run over
+  /// several that is not the first, when it takes its share of pairs that every process held:
+  /// the sum over the processes is then the first's).
+  virtual void clear_dissipation() = 0;
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
   /// Node groups of the pairs of the last projection that are active or within reach (a

@@ -162,6 +162,11 @@ std::vector<ContactPoint> ContactStage::points() const {
   return local_points();
 }
 
+void ContactStage::clear_dissipation() {
+  for (auto& set : sets_)
+    set->clear_dissipation();
+}
+
 void ContactStage::set_gathered_points(std::vector<ContactPoint> points) {
   gathered_points_ = std::move(points);
 }

@@ -73,6 +73,8 @@ public:
   /// The processes' combined figures of this evaluation: summary() returns them until the next
   /// projection.
   void agree(const ContactSummary& over_processes);
+  /// ContactSet::clear_dissipation of every set.
+  void clear_dissipation();
   /// The processes' points of the last converged state, for points().
   void set_gathered_points(std::vector<ContactPoint> points);
   /// "spline", "surface" or "spline and surface".

@@ -52,6 +52,7 @@ public:
     owned_ = owned;
     rebuild_work_ = true;
   }
+  void clear_dissipation() override { dissipated_ = 0; }
   int candidates_version() const override { return candidates_version_; }
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;

@@ -43,6 +43,7 @@ public:
     owned_ = owned;
     rebuild_work_ = true;
   }
+  void clear_dissipation() override { dissipated_ = 0; }
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;

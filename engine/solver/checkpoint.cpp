@@ -44,6 +44,10 @@ SimulationCheckpoint Simulation::checkpoint() const {
     c.explicit_progress = explicit_progress();
   // Over several processes, the processes' histories gathered at the last commit.
   const bool gathered = contact_ && contact_->partitioned();
+  if (gathered &&
+      ((contact_->spline() && !gathered_spline_) || (contact_->surface() && !gathered_surface_)))
+    throw std::logic_error("checkpoint: over several processes the contact histories are gathered "
+                           "at each commit, and none has been gathered yet");
   if (contact_ && contact_->spline())
     c.contact = gathered ? *gathered_spline_ : contact_->spline()->snapshot();
   if (contact_ && contact_->surface())

@@ -759,6 +759,23 @@ std::string Simulation::agree_contact(const std::string& veto) {
   return distributed::first_message(veto);
 }
 
+void Simulation::share_contact_pairs() {
+  // After an explicit step every process holds every pair and the same histories: they are the
+  // run's figures, points and snapshots as they stand, and the friction dissipated so far stays
+  // with the first process alone (the sum over the processes counts it once). The work lists
+  // keep each process's own pairs from the next search on.
+  contact_->agree(contact_->local_summary());
+  contact_->set_gathered_points(contact_->local_points());
+  if (distributed::rank() != 0)
+    contact_->clear_dissipation();
+  gathered_spline_.reset();
+  gathered_surface_.reset();
+  if (const SplineContactSet* spline = contact_->spline())
+    gathered_spline_ = spline->snapshot();
+  if (const SurfaceContactSet* surface = contact_->surface())
+    gathered_surface_ = surface->snapshot();
+}
+
 void Simulation::gather_contact() {
   gathered_spline_.reset();
   gathered_surface_.reset();
@@ -1237,8 +1254,12 @@ void Simulation::run(SimulationObserver* observer) {
   for (; step_ < static_cast<int>(model_.steps.size()); ++step_, next_dt_ = 0) {
     const std::size_t s = step_;
     const SolutionStep& step = model_.steps[s];
-    if (contact_)
+    if (contact_) {
+      const bool shared = contact_->partitioned();
       contact_->set_explicit_path(step.type == StepType::Explicit);
+      if (contact_->partitioned() && !shared)
+        share_contact_pairs();
+    }
     if (step.type == StepType::Explicit) {
       run_explicit(static_cast<int>(s), observer);
       t = step.end_time;

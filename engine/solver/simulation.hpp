@@ -251,6 +251,10 @@ private:
   /// Over several processes: the contact points (for output) and histories (for checkpoints)
   /// of the last converged state, gathered from the processes. Collective, after each commit.
   void gather_contact();
+  /// Over several processes, where an explicit step (every process holding every pair) hands
+  /// over to an implicit one (each its own pairs): the run's contact figures, points and
+  /// snapshots as every process holds them.
+  void share_contact_pairs();
   bool stop_requested() const;
   [[noreturn]] void throw_interrupted() const;
   void commit(const SolutionStep& step, double dt, double t_new);
