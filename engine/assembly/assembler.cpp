@@ -360,6 +360,32 @@ bool Assembler::grow_pattern(const std::vector<ContactCoupling>& added) {
   return true;
 }
 
+std::vector<char> Assembler::own_entries(const NodePartition& owned,
+                                         const std::vector<ContactCoupling>& couplings) const {
+  std::vector<char> own(static_cast<std::size_t>(matrix_.nonZeros()), 0);
+  const auto mark = [&own](const int* slots, int n) {
+    for (int k = 0; k < n; ++k)
+      if (slots[k] >= 0)
+        own[static_cast<std::size_t>(slots[k])] = 1;
+  };
+  for (std::size_t e = 0; e < element_slots_.size(); ++e)
+    if (owned.owns(connectivity_[e][0]))
+      mark(element_slots_[e].data(), static_cast<int>(element_slots_[e].size()));
+  for (int i = owned.first; i < owned.last; ++i)
+    mark(node_slots_[static_cast<std::size_t>(i)].data(), 36);
+  std::array<int, 24 * 24> slots;
+  for (const ContactCoupling& c : couplings) {
+    if (c.rotations) {
+      surface_pair_block_slots({c.nodes[0], c.nodes[1], c.nodes[2], c.nodes[3]}, slots.data());
+      mark(slots.data(), 24 * 24);
+    } else {
+      translation_block_slots(c.nodes, slots.data());
+      mark(slots.data(), 18 * 18);
+    }
+  }
+  return own;
+}
+
 bool Assembler::set_couplings(std::vector<ContactCoupling> groups) {
   std::sort(groups.begin(), groups.end());
   groups.erase(std::unique(groups.begin(), groups.end()), groups.end());

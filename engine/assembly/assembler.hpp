@@ -107,6 +107,12 @@ public:
   /// + r] for block entry (r, c). The pattern must hold the coupling with rotations.
   void surface_pair_block_slots(const std::array<int, 4>& nodes, int* slots) const;
 
+  /// The matrix entries one process of a run over several may write (partition.hpp): those of
+  /// the elements whose first node `owned` holds, of its nodes' blocks (inertia, loads) and of
+  /// the blocks of `couplings` (its contact pairs'); 1 per entry of matrix().valuePtr(), else 0.
+  std::vector<char> own_entries(const NodePartition& owned,
+                                const std::vector<ContactCoupling>& couplings) const;
+
 private:
   /// The pattern of the beams and couplings_, matrix() zero; with keep_values the entries of
   /// the old pattern (which the new one must hold) keep their values.

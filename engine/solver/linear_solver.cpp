@@ -293,19 +293,31 @@ public:
     if (symmetric_)
       sym_.analyze(A);
     // This process's columns (all of them on one process, contiguous shares over MPI) of the
-    // symmetric part's lower triangle, or of the full tangent; 1-based coordinates.
+    // symmetric part's lower triangle, or of the full tangent; 1-based coordinates. Where each
+    // process holds only its own partial sums (set_own_entries), it hands in the entries it
+    // assembled, in every column, and MUMPS sums them: for LDL^T those of the lower triangle
+    // whose entry or transpose it assembled (its symmetric part's share).
     const SparseMatrix& M = symmetric_ ? sym_.matrix() : A;
-    const distributed::Share columns = distributed::share(static_cast<int>(M.outerSize()));
+    const bool partial = !own_.empty();
+    if (partial && own_.size() != std::size_t(A.nonZeros()))
+      throw std::logic_error(
+          fmt::format("MUMPS: {} own entries for a tangent of {}", own_.size(), A.nonZeros()));
+    const distributed::Share columns = partial
+                                           ? distributed::Share{0, static_cast<int>(M.outerSize())}
+                                           : distributed::share(static_cast<int>(M.outerSize()));
     irn_.clear();
     jcn_.clear();
     source_.clear();
     for (int col = columns.begin; col < columns.end; ++col)
-      for (int k = M.outerIndexPtr()[col]; k < M.outerIndexPtr()[col + 1]; ++k)
-        if (!symmetric_ || M.innerIndexPtr()[k] >= col) {
-          irn_.push_back(M.innerIndexPtr()[k] + 1);
-          jcn_.push_back(col + 1);
-          source_.push_back(k);
-        }
+      for (int k = M.outerIndexPtr()[col]; k < M.outerIndexPtr()[col + 1]; ++k) {
+        if (symmetric_ && M.innerIndexPtr()[k] < col)
+          continue;
+        if (partial && !own_[k] && !(symmetric_ && own_[sym_.transpose(k)]))
+          continue;
+        irn_.push_back(M.innerIndexPtr()[k] + 1);
+        jcn_.push_back(col + 1);
+        source_.push_back(k);
+      }
     values_.assign(source_.size(), 0.0);
     id_.n = static_cast<MUMPS_INT>(A.rows());
 #ifdef YARNSIM_HAVE_MPI
@@ -380,6 +392,12 @@ public:
   std::string name() const override {
     return "mumps";
   }
+  bool sums_partial_tangents() const override {
+    return distributed::size() > 1;
+  }
+  void set_own_entries(std::vector<char> own) override {
+    own_ = std::move(own);
+  }
 
 private:
 #ifndef YARNSIM_HAVE_MPI
@@ -432,6 +450,9 @@ private:
   /// The ordering in use (the host's; zeros on the others) and its fill: the factor's estimated
   /// entries over the entries handed in when METIS computed it; 0: none yet.
   SolverOrdering ordering_;
+  /// Over several processes holding partial sums: the entries of A this process assembled
+  /// (set_own_entries); empty: the whole tangent, shared by columns.
+  std::vector<char> own_;
 };
 #endif
 
@@ -592,6 +613,8 @@ public:
   std::string name() const override { return solver_->name(); }
   SolverOrdering ordering() const override { return solver_->ordering(); }
   void set_ordering(const SolverOrdering& o) override { solver_->set_ordering(o); }
+  bool sums_partial_tangents() const override { return solver_->sums_partial_tangents(); }
+  void set_own_entries(std::vector<char> own) override { solver_->set_own_entries(std::move(own)); }
 
 private:
   std::unique_ptr<LinearSolver> solver_;

@@ -82,6 +82,13 @@ public:
   virtual SolverOrdering ordering() const { return {}; }
   /// Continue from this ordering: the next analysis tries it first.
   virtual void set_ordering(const SolverOrdering&) {}
+  /// Over several processes, whether each process hands the solver only the tangent entries it
+  /// assembled itself (its partial sums; MUMPS's distributed input sums the duplicates) instead
+  /// of the whole tangent summed beforehand (Simulation::evaluate).
+  virtual bool sums_partial_tangents() const { return false; }
+  /// The entries this process assembles (1 per entry of the tangent's values, 0 where it adds
+  /// nothing: Assembler::own_entries), for the next analysis; with sums_partial_tangents().
+  virtual void set_own_entries(std::vector<char> /*own*/) {}
 };
 
 /// symmetric_tangent: the kinds that choose between the symmetric part and the full tangent

@@ -489,7 +489,16 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
     iteration_.veto = agree_contact(iteration_.veto);
     if (iteration_.veto.empty()) {
       if (want_tangent) {
-        std::vector<ContactCoupling> couplings = distributed::gather(contact_->couplings());
+        std::vector<ContactCoupling> mine = contact_->couplings();
+        std::sort(mine.begin(), mine.end());
+        mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
+        // This process's pairs' blocks, for the entries it hands the solver (own_entries).
+        std::vector<ContactCoupling> merged;
+        std::set_union(own_couplings_.begin(), own_couplings_.end(), mine.begin(), mine.end(),
+                       std::back_inserter(merged));
+        own_couplings_changed_ = own_couplings_changed_ || merged.size() != own_couplings_.size();
+        own_couplings_ = std::move(merged);
+        std::vector<ContactCoupling> couplings = distributed::gather(mine);
         std::sort(couplings.begin(), couplings.end());
         assembler_->ensure_couplings(std::move(couplings));
       }
@@ -554,7 +563,8 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
   // The beams' largest nodal force is complete on the process owning the node's yarn.
   if (partition_) {
     distributed::sum(residual.data(), static_cast<std::size_t>(residual.size()));
-    if (want_tangent)
+    // MUMPS sums the processes' own entries itself (own_entries); other solvers take the whole.
+    if (want_tangent && !solver_->sums_partial_tangents())
       distributed::sum(assembler_->matrix().valuePtr(),
                        static_cast<std::size_t>(assembler_->matrix().nonZeros()));
     ref_force = distributed::largest(ref_force);
@@ -813,8 +823,16 @@ void Simulation::gather_contact() {
 
 void Simulation::prune_couplings() {
   std::vector<ContactCoupling> needed = contact_->couplings();
-  if (contact_->partitioned()) // every process's pairs: the patterns stay the same
-    needed = distributed::gather(needed);
+  if (contact_->partitioned()) { // every process's pairs: the patterns stay the same
+    std::vector<ContactCoupling> mine = needed;
+    needed = distributed::gather(mine);
+    if (4 * assembler_->couplings().size() > 5 * needed.size() + 64) {
+      std::sort(mine.begin(), mine.end());
+      mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
+      own_couplings_ = std::move(mine);
+      own_couplings_changed_ = true;
+    }
+  }
   if (4 * assembler_->couplings().size() > 5 * needed.size() + 64)
     assembler_->set_couplings(needed);
 }
@@ -1023,7 +1041,17 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     // Solve.
     auto tick = std::chrono::steady_clock::now();
     try {
-      if (analysed_pattern_ != assembler_->pattern_version()) {
+      // Over several processes handing in their own entries, a process whose pairs need blocks
+      // it did not assemble before (in a pattern that already held them) analyses again with
+      // the others (a collective call).
+      bool own_changed = false;
+      if (partition_ && solver_->sums_partial_tangents()) {
+        own_changed = distributed::any(own_couplings_changed_);
+        own_couplings_changed_ = false;
+      }
+      if (own_changed || analysed_pattern_ != assembler_->pattern_version()) {
+        if (partition_ && solver_->sums_partial_tangents())
+          solver_->set_own_entries(assembler_->own_entries(*partition_, own_couplings_));
         solver_->analyze(assembler_->matrix());
         analysed_pattern_ = assembler_->pattern_version();
       }

@@ -323,6 +323,11 @@ private:
   /// This process's share of the assembly over several processes (partition.hpp); none (every
   /// element, pair and node) in a one-process run.
   std::optional<NodePartition> partition_;
+  /// Over several processes: the couplings of this process's pairs since the pattern was last
+  /// rebuilt (the blocks it assembles: Assembler::own_entries), and whether they grew since the
+  /// last analysis.
+  std::vector<ContactCoupling> own_couplings_;
+  bool own_couplings_changed_ = false;
   /// The processes' contact snapshots of the last commit (gather_contact), for checkpoint().
   std::optional<SplineContactSet::Snapshot> gathered_spline_;
   std::optional<SurfaceContactSet::Snapshot> gathered_surface_;

@@ -17,6 +17,8 @@ namespace yarnsim {
 class SymmetricPart {
 public:
   const SparseMatrix& matrix() const { return sym_; }
+  /// The index of entry k's transpose among the analysed matrix's values.
+  int transpose(Eigen::Index k) const { return transpose_index_[static_cast<std::size_t>(k)]; }
   /// The columns are independent: in parallel (the same map on any thread count).
   void analyze(const SparseMatrix& A) {
     sym_ = A;
