@@ -230,6 +230,17 @@ void add_by_node(int n_nodes, const std::vector<std::array<int, N>>& nodes,
                     });
 }
 
+/// Whether `part` (a process of a run over several: partition.hpp) projects and assembles a
+/// contact pair between bodies a and b (indices into Model::splines or Model::surfaces, each
+/// whole on one process), given a node of each: a's owner where a + b is even, else b's. So every
+/// pair between two bodies has one owner (the hand-over of a point to a neighbouring pair and
+/// the split contacts near a node stay on it), and a weave's warp-weft crossings spread over the
+/// warp's and the weft's processes.
+inline bool pair_owned_by(const NodePartition& part, int body_a, int body_b, int node_a,
+                          int node_b) {
+  return part.owns((body_a + body_b) % 2 == 0 ? node_a : node_b);
+}
+
 /// Folds an active pair (definition, first, second) into ContactSummary::active_set.
 inline std::uint64_t fold_active_pair(std::uint64_t h, int definition, int first, int second) {
   for (int v : {definition, first, second})

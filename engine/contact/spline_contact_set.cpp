@@ -184,8 +184,7 @@ contact::AllAngleOptions SplineContactSet::all_angle_of(const Definition& d, dou
 bool SplineContactSet::owned_by(const NodePartition& part, const Definition& d,
                                 const broadphase::CandidatePair& p) const {
   const auto n = nodes_of(d, p);
-  const bool even = (d.spline[p.first] + d.spline[p.second]) % 2 == 0;
-  return part.owns(n[even ? 0 : 3]);
+  return pair_owned_by(part, d.spline[p.first], d.spline[p.second], n[0], n[3]);
 }
 
 bool SplineContactSet::update_candidates(const State& state) {

@@ -144,8 +144,7 @@ contact::SuperEllipticalCylinder SurfaceContactSet::cylinder(const Definition& d
 bool SurfaceContactSet::owned_by(const NodePartition& part, const Definition& d,
                                  const broadphase::CandidatePair& p) const {
   const auto n = nodes_of(d, p);
-  const bool even = (d.surface[p.first] + d.surface[p.second]) % 2 == 0;
-  return part.owns(n[even ? 0 : 2]);
+  return pair_owned_by(part, d.surface[p.first], d.surface[p.second], n[0], n[2]);
 }
 
 bool SurfaceContactSet::update_candidates(const State& state) {

@@ -170,11 +170,7 @@ private:
   /// This process's share (set_owned): the pairs whose first node it holds; none: all.
   std::optional<NodePartition> owned_;
   bool rebuild_work_ = false; ///< the work list must follow a new share
-  /// Whether `part` holds pair p of definition d: the owner of one of its two bodies (whole on
-  /// one process: partition.hpp), the first where the bodies' indices have an even sum, else the
-  /// second. Every pair between two bodies has one owner (the hand-over to a neighbouring pair
-  /// and the split contacts near a node stay on it), and the pairs of a weave, warp-weft
-  /// crossings, spread over the warp's and the weft's processes.
+  /// Whether `part` holds pair p of definition d (pair_owned_by, on its two bodies).
   bool owned_by(const NodePartition& part, const Definition& d,
                 const broadphase::CandidatePair& p) const;
   /// Whether this process projects pair p of definition d (set_owned).

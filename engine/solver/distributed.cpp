@@ -50,20 +50,22 @@ void sum(double* data, std::size_t n) {
                   MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
 }
 
-double largest(double local) {
+namespace {
+double reduced(double local, MPI_Op op) {
   if (size() == 1)
     return local;
   double all = local;
-  MPI_Allreduce(&local, &all, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Allreduce(&local, &all, 1, MPI_DOUBLE, op, MPI_COMM_WORLD);
   return all;
+}
+} // namespace
+
+double largest(double local) {
+  return reduced(local, MPI_MAX);
 }
 
 double smallest(double local) {
-  if (size() == 1)
-    return local;
-  double all = local;
-  MPI_Allreduce(&local, &all, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
-  return all;
+  return reduced(local, MPI_MIN);
 }
 
 std::vector<char> gather_bytes(const void* bytes, std::size_t n) {

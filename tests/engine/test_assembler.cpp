@@ -298,7 +298,7 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
   // (Simulation::evaluate). Over any number of processes those are the one-process ones, so no
   // pair is left out or found twice. On 2 processes the paper's fabric splits into its warp
   // (nodes of the first 6 yarns) and its weft, so every crossing pair couples nodes of both; the
-  // pairs spread over the two about evenly (SplineContactSet::owned_by).
+  // pairs spread over the two about evenly (pair_owned_by).
   for (const char* deck : {"biaxial-k1.toml", "biaxial-surface-k1.toml"}) {
     SCOPED_TRACE(deck);
     Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / deck);
