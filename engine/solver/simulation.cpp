@@ -558,9 +558,10 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
       ref_moment = std::max(ref_moment, std::abs(factor) * l.moment.norm());
     }
   }
-  // Over several processes each holds the sums of its share (partition.hpp): summed here, every
-  // process has the whole residual and matrix, and the solver takes them as in a one-process run.
-  // The beams' largest nodal force is complete on the process owning the node's yarn.
+  // Over several processes each holds the sums of its share (partition.hpp): the residuals are
+  // summed here, so every process has the whole; the matrices too, except where the solver sums
+  // the processes' own entries itself (MUMPS: Assembler::own_entries). The beams' largest nodal
+  // force is complete on the process owning the node's yarn.
   if (partition_) {
     distributed::sum(residual.data(), static_cast<std::size_t>(residual.size()));
     // MUMPS sums the processes' own entries itself (own_entries); other solvers take the whole.
