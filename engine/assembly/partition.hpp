@@ -1,9 +1,9 @@
 #pragma once
 // The share of the assembly one process takes when a run is spread over several (MPI): a
 // contiguous range of nodes, cut between whole yarns. The process assembles the beam elements
-// whose first node it owns, the contact pairs whose first node it owns, and its nodes' inertia
-// and loads; the processes then sum their residuals and matrices (Simulation::evaluate), so every
-// element and pair is assembled once, by one process.
+// whose first node it owns and its nodes' inertia and loads, and projects and assembles the
+// contact pairs it owns (pair_owned_by, contact_set.hpp); the processes' residuals and matrices
+// are then summed (Simulation::evaluate), so every element and pair is assembled once.
 
 #include <vector>
 

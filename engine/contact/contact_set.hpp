@@ -142,20 +142,19 @@ double smallest_limit(std::size_t n, Limit limit) {
       [](double a, double b) { return std::min(a, b); });
 }
 
-/// The first step of a contact set's assembly: the indices of the active items of `work` that
-/// `owned(item)` accepts (a process's share: partition.hpp), in their order, into `items` and,
-/// for a tangent, each one's `block` matrix slots in `cache`
+/// The first step of a contact set's assembly: the indices of the active items of `work` (in
+/// their order) into `items` and, for a tangent, each one's `block` matrix slots in `cache`
 /// (cache.slots(item)): those the cache lacks (new active items, or all after the pattern
 /// `pattern_id` changed) are looked up in parallel by slots_of(item, destination), an
 /// Assembler::*_block_slots lookup. The set then adds the pairs in their order (add_by_node):
 /// the same sums on any thread count.
-template <class Work, class Owned, class SlotsOf>
+template <class Work, class SlotsOf>
 void find_active_slots(const std::vector<Work>& work, bool want_tangent, int block,
                        std::uint64_t pattern_id, std::vector<int>& items, SlotCache& cache,
-                       Owned owned, SlotsOf slots_of) {
+                       SlotsOf slots_of) {
   items.clear();
   for (std::size_t w = 0; w < work.size(); ++w)
-    if (work[w].result.active && owned(work[w]))
+    if (work[w].result.active)
       items.push_back(static_cast<int>(w));
   if (!want_tangent)
     return;
@@ -308,9 +307,12 @@ public:
   /// implicit steps take them at the contact points (contact::FrictionForce).
   virtual void set_explicit_path(bool /*explicit_path*/) {}
   /// A process's share of a run over several (partition.hpp): from the next update_candidates
-  /// on, the work list holds only the pairs whose first node `owned` holds (none: every pair),
-  /// and a restore keeps only those. The candidate search stays whole.
-  virtual void set_owned(const std::optional<NodePartition>& owned) = 0;
+  /// on (also after a restore), the work list holds only the pairs `owned` holds
+  /// (pair_owned_by; none: every pair). The candidate search stays whole.
+  void set_owned(const std::optional<NodePartition>& owned) {
+    owned_ = owned;
+    rebuild_work_ = true;
+  }
   /// Forgets the friction dissipated over the committed increments (a process of a run over
   /// several that is not the first, when it takes its share of pairs that every process held:
   /// the sum over the processes is then the first's).
@@ -324,10 +326,10 @@ public:
   /// parallel yarns of a sheared fabric they are thousands, each coupling two yarns along their
   /// length in the factor long before they touch (docs/performance.md).
   virtual std::vector<ContactCoupling> couplings() const = 0;
-  /// Adds the active pairs' residuals and, if want_tangent, tangents, in sorted pair order.
-  /// With `owned`, only the pairs whose first node it owns (a process's share: partition.hpp).
-  virtual void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
-                        const NodePartition* owned = nullptr) const = 0;
+  /// Adds the active pairs' residuals and, if want_tangent, tangents, in sorted pair order (of
+  /// a share, its own pairs: set_owned).
+  virtual void assemble(Eigen::VectorXd& residual, Assembler& assembler,
+                        bool want_tangent) const = 0;
   /// Accepts the last evaluation as converged: warm starts and active flags for the next one.
   virtual void commit() = 0;
   /// Figures of the last evaluation (computed with it, not on each call).
@@ -346,6 +348,11 @@ public:
     return std::numeric_limits<double>::infinity();
   }
   virtual std::vector<ContactPoint> points() const = 0;
+
+protected:
+  /// This process's share (set_owned): none, every pair.
+  std::optional<NodePartition> owned_;
+  bool rebuild_work_ = false; ///< the work list must follow a new share
 };
 
 } // namespace yarnsim

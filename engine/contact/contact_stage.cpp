@@ -85,10 +85,10 @@ bool ContactStage::partitioned() const {
   return partition_.has_value() && !explicit_path_;
 }
 
-void ContactStage::assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
-                            const NodePartition* owned) const {
+void ContactStage::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+                            bool want_tangent) const {
   for (const auto& set : sets_)
-    set->assemble(residual, assembler, want_tangent, owned);
+    set->assemble(residual, assembler, want_tangent);
 }
 
 void ContactStage::commit() {

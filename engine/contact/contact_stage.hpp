@@ -39,8 +39,7 @@ public:
   std::string evaluate(const State& state, bool want_tangent);
   int candidates_version() const;
   std::vector<ContactCoupling> couplings() const;
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
-                const NodePartition* owned = nullptr) const;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
   void commit();
   /// The smallest ContactSet::closing_limit of the sets.
   double closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,
@@ -60,9 +59,9 @@ public:
   /// (partitioned()): the gathered points of the last converged state (set_gathered_points).
   std::vector<ContactPoint> points() const;
 
-  /// A run over several processes (MPI, partition.hpp): each set projects only the pairs whose
-  /// first node `owned` holds (ContactSet::set_owned) on implicit steps; explicit steps project
-  /// every pair on every process. None: every pair (one process).
+  /// A run over several processes (MPI, partition.hpp): each set projects and assembles only the
+  /// pairs `owned` holds (ContactSet::set_owned) on implicit steps; explicit steps project every
+  /// pair on every process. None: every pair (one process).
   void set_partition(const std::optional<NodePartition>& owned);
   /// Whether the sets now project this process's pairs only (a partition, on an implicit step).
   bool partitioned() const;

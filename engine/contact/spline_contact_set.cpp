@@ -181,10 +181,11 @@ contact::AllAngleOptions SplineContactSet::all_angle_of(const Definition& d, dou
   return all_angle;
 }
 
-bool SplineContactSet::owned_by(const NodePartition& part, const Definition& d,
-                                const broadphase::CandidatePair& p) const {
+bool SplineContactSet::owns(const Definition& d, const broadphase::CandidatePair& p) const {
+  if (!owned_)
+    return true;
   const auto n = nodes_of(d, p);
-  return pair_owned_by(part, d.spline[p.first], d.spline[p.second], n[0], n[3]);
+  return pair_owned_by(*owned_, d.spline[p.first], d.spline[p.second], n[0], n[3]);
 }
 
 bool SplineContactSet::update_candidates(const State& state) {
@@ -442,8 +443,8 @@ std::vector<ContactCoupling> SplineContactSet::couplings() const {
   return out;
 }
 
-void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
-                                const NodePartition* owned) const {
+void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+                                bool want_tangent) const {
   // Tangents are left as they were where they were not computed (project), so a tangent asked
   // for here must come from a projection that computed it.
   if (want_tangent && !tangents_computed_)
@@ -452,15 +453,11 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
   // its order (find_active_slots).
   constexpr int kBlock = 18 * 18;
-  find_active_slots(
-      work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_, assembly_slots_,
-      [&](const Work& item) {
-        return !owned || owned_by(*owned, *definitions_[item.definition], item.pair);
-      },
-      [&](const Work& item, int* slots) {
-        assembler.translation_block_slots(nodes_of(*definitions_[item.definition], item.pair),
-                                          slots);
-      });
+  find_active_slots(work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_,
+                    assembly_slots_, [&](const Work& item, int* slots) {
+                      assembler.translation_block_slots(
+                          nodes_of(*definitions_[item.definition], item.pair), slots);
+                    });
   // Each item's nodes and line friction, then the items added in parallel over their nodes,
   // each node's in the items' order (add_by_node): the same sums as one loop over the items.
   assembly_nodes_.resize(assembly_items_.size());

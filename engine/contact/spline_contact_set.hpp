@@ -48,17 +48,12 @@ public:
     friction_force_ = explicit_path ? contact::FrictionForce::ConjugateToTheGap
                                     : contact::FrictionForce::AtContactPoints;
   }
-  void set_owned(const std::optional<NodePartition>& owned) override {
-    owned_ = owned;
-    rebuild_work_ = true;
-  }
   void clear_dissipation() override { dissipated_ = 0; }
   int candidates_version() const override { return candidates_version_; }
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;
   /// Translations only: the splines' control points carry no rotations.
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
-                const NodePartition* owned = nullptr) const override;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
   void commit() override;
   /// Gaps are effective gaps (eq. 12).
   const ContactSummary& summary() const override { return summary_; }
@@ -216,16 +211,8 @@ private:
   double time_ = 0; ///< s, of the configurations projected (the compaction's time)
   /// How the point friction's force reaches the positions: set_explicit_path.
   contact::FrictionForce friction_force_ = contact::FrictionForce::AtContactPoints;
-  /// This process's share (set_owned): the pairs whose first node it holds; none: all.
-  std::optional<NodePartition> owned_;
-  bool rebuild_work_ = false; ///< the work list must follow a new share
-  /// Whether `part` holds pair p of definition d (pair_owned_by, on its two bodies).
-  bool owned_by(const NodePartition& part, const Definition& d,
-                const broadphase::CandidatePair& p) const;
-  /// Whether this process projects pair p of definition d (set_owned).
-  bool owns(const Definition& d, const broadphase::CandidatePair& p) const {
-    return !owned_ || owned_by(*owned_, d, p);
-  }
+  /// Whether this process projects pair p of definition d (set_owned, pair_owned_by).
+  bool owns(const Definition& d, const broadphase::CandidatePair& p) const;
   ContactSummary summary_;
 };
 

@@ -141,10 +141,11 @@ contact::SuperEllipticalCylinder SurfaceContactSet::cylinder(const Definition& d
   return {node(el.nodes[0]), node(el.nodes[2]), sections_[d.surface[s]], last, &previous};
 }
 
-bool SurfaceContactSet::owned_by(const NodePartition& part, const Definition& d,
-                                 const broadphase::CandidatePair& p) const {
+bool SurfaceContactSet::owns(const Definition& d, const broadphase::CandidatePair& p) const {
+  if (!owned_)
+    return true;
   const auto n = nodes_of(d, p);
-  return pair_owned_by(part, d.surface[p.first], d.surface[p.second], n[0], n[2]);
+  return pair_owned_by(*owned_, d.surface[p.first], d.surface[p.second], n[0], n[2]);
 }
 
 bool SurfaceContactSet::update_candidates(const State& state) {
@@ -470,20 +471,16 @@ std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
   return out;
 }
 
-void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
-                                 const NodePartition* owned) const {
+void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+                                 bool want_tangent) const {
   // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
   // its order (find_active_slots).
   constexpr int kBlock = 24 * 24;
-  find_active_slots(
-      work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_, assembly_slots_,
-      [&](const Work& item) {
-        return !owned || owned_by(*owned, *definitions_[item.definition], item.pair);
-      },
-      [&](const Work& item, int* slots) {
-        assembler.surface_pair_block_slots(nodes_of(*definitions_[item.definition], item.pair),
-                                           slots);
-      });
+  find_active_slots(work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_,
+                    assembly_slots_, [&](const Work& item, int* slots) {
+                      assembler.surface_pair_block_slots(
+                          nodes_of(*definitions_[item.definition], item.pair), slots);
+                    });
   // The items added in parallel over their end nodes, each node's in the items' order
   // (add_by_node): the same sums as one loop over the items.
   assembly_nodes_.resize(assembly_items_.size());

@@ -39,16 +39,11 @@ public:
                       const ContactRates* rates = nullptr) override;
   /// Whether a definition has tangential damping (it needs the rates of dynamic steps).
   bool damped() const { return damped_; }
-  void set_owned(const std::optional<NodePartition>& owned) override {
-    owned_ = owned;
-    rebuild_work_ = true;
-  }
   void clear_dissipation() override { dissipated_ = 0; }
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent,
-                const NodePartition* owned = nullptr) const override;
+  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
   void commit() override;
   /// Gaps are signed distances between the surfaces.
   const ContactSummary& summary() const override { return summary_; }
@@ -167,16 +162,8 @@ private:
   std::vector<contact::SurfaceTorsionalFrictionResult> torsion_;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   int candidates_version_ = 0;
-  /// This process's share (set_owned): the pairs whose first node it holds; none: all.
-  std::optional<NodePartition> owned_;
-  bool rebuild_work_ = false; ///< the work list must follow a new share
-  /// Whether `part` holds pair p of definition d (pair_owned_by, on its two bodies).
-  bool owned_by(const NodePartition& part, const Definition& d,
-                const broadphase::CandidatePair& p) const;
-  /// Whether this process projects pair p of definition d (set_owned).
-  bool owns(const Definition& d, const broadphase::CandidatePair& p) const {
-    return !owned_ || owned_by(*owned_, d, p);
-  }
+  /// Whether this process projects pair p of definition d (set_owned, pair_owned_by).
+  bool owns(const Definition& d, const broadphase::CandidatePair& p) const;
   ContactSummary summary_;
 };
 

@@ -7,8 +7,6 @@
 
 #include "engine/solver/checkpoint.hpp"
 
-#include "engine/solver/distributed.hpp"
-
 #include <fmt/format.h>
 #include <stdexcept>
 
@@ -118,33 +116,14 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
     resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);
   if (contact_)
     contact_->set_time(state_.time);
-  // Over several processes every one restores the whole snapshot and keeps its own pairs from
-  // the next search on (ContactSet::set_owned); the friction dissipated so far stays with the
-  // first process alone, so that the sum over them is the saved one.
-  const bool partitioned = contact_ && contact_->partitioned();
-  const bool first = distributed::rank() == 0;
-  if (spline) {
-    SplineContactSet::Snapshot snapshot = *from.contact;
-    if (partitioned && !first)
-      snapshot.dissipated = 0;
-    contact_->spline()->restore(snapshot);
-  }
-  if (surface) {
-    SurfaceContactSet::Snapshot snapshot = *from.surface_contact;
-    if (partitioned && !first)
-      snapshot.dissipated = snapshot.summary.dissipation = 0;
-    contact_->surface()->restore(snapshot);
-  }
-  if (partitioned) {
-    // Each process now holds the whole saved list: its figures, points and snapshots are the
-    // run's (the dissipation summed as above).
-    ContactSummary s = contact_->local_summary();
-    distributed::sum(&s.dissipation, 1);
-    contact_->agree(s);
-    contact_->set_gathered_points(contact_->local_points());
-    gathered_spline_ = from.contact;
-    gathered_surface_ = from.surface_contact;
-  }
+  if (spline)
+    contact_->spline()->restore(*from.contact);
+  if (surface)
+    contact_->surface()->restore(*from.surface_contact);
+  // Over several processes every one has restored the whole snapshot, as after an explicit step,
+  // and keeps its own pairs from the next search on (ContactSet::set_owned).
+  if (contact_ && contact_->partitioned())
+    share_contact_pairs();
 
   for (const auto& g : from.pattern_groups)
     for (int node : g.nodes)

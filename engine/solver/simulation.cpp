@@ -347,8 +347,7 @@ struct Simulation::IterationGraph {
                              if (s.iteration_.want_tangent)
                                s.assembler_->ensure_couplings(std::move(s.iteration_.couplings));
                              s.contact_->assemble(*s.iteration_.residual, *s.assembler_,
-                                                  s.iteration_.want_tangent,
-                                                  s.partition_ ? &*s.partition_ : nullptr);
+                                                  s.iteration_.want_tangent);
                            }
                            s.stage_times_.other_assembly += seconds_since(t0);
                          }),
@@ -502,7 +501,7 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
         std::sort(couplings.begin(), couplings.end());
         assembler_->ensure_couplings(std::move(couplings));
       }
-      contact_->assemble(residual, *assembler_, want_tangent, &*partition_);
+      contact_->assemble(residual, *assembler_, want_tangent);
     }
     stage_times_.other_assembly +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_agree).count();
@@ -771,10 +770,10 @@ std::string Simulation::agree_contact(const std::string& veto) {
 }
 
 void Simulation::share_contact_pairs() {
-  // After an explicit step every process holds every pair and the same histories: they are the
-  // run's figures, points and snapshots as they stand, and the friction dissipated so far stays
-  // with the first process alone (the sum over the processes counts it once). The work lists
-  // keep each process's own pairs from the next search on.
+  // After an explicit step or a restore every process holds every pair and the same histories:
+  // they are the run's figures, points and snapshots as they stand, and the friction dissipated
+  // so far stays with the first process alone (the sum over the processes counts it once). The
+  // work lists keep each process's own pairs from the next search on.
   contact_->agree(contact_->local_summary());
   contact_->set_gathered_points(contact_->local_points());
   if (distributed::rank() != 0)

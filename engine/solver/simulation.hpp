@@ -251,8 +251,8 @@ private:
   /// Over several processes: the contact points (for output) and histories (for checkpoints)
   /// of the last converged state, gathered from the processes. Collective, after each commit.
   void gather_contact();
-  /// Over several processes, where an explicit step (every process holding every pair) hands
-  /// over to an implicit one (each its own pairs): the run's contact figures, points and
+  /// Over several processes, where every process holds every pair (after an explicit step or a
+  /// restore) and each is to keep its own from now on: the run's contact figures, points and
   /// snapshots as every process holds them.
   void share_contact_pairs();
   bool stop_requested() const;

@@ -261,12 +261,11 @@ TEST(ContactAssembly, SlotsAreLookedUpAgainOnlyForNewPairsOrANewPattern) {
   SlotCache cache;
   int looked_up = 0;
   const auto evaluate = [&] {
-    find_active_slots(
-        work, true, 324, assembler.pattern_id(), items, cache, [](const auto&) { return true; },
-        [&](const Item& item, int* slots) {
-          ++looked_up;
-          assembler.translation_block_slots(item.nodes, slots);
-        });
+    find_active_slots(work, true, 324, assembler.pattern_id(), items, cache,
+                      [&](const Item& item, int* slots) {
+                        ++looked_up;
+                        assembler.translation_block_slots(item.nodes, slots);
+                      });
     // Every active pair's cached slots are those a fresh look-up gives.
     for (int w : items) {
       std::array<int, 324> fresh;
@@ -317,7 +316,7 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
       Eigen::VectorXd r = Eigen::VectorXd::Zero(6 * n);
       assembler.zero_matrix();
       assembler.add_beams(state, r, true, {}, nullptr, owned);
-      stage.assemble(r, assembler, true, owned);
+      stage.assemble(r, assembler, true); // a share's stage holds its own pairs alone
       const SparseMatrix& K = assembler.matrix();
       return std::pair{
           r, Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(K.valuePtr(), K.nonZeros()))};
