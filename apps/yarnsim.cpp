@@ -289,7 +289,7 @@ int main(int argc, char** argv) {
   // What a run that stops early did: its stage times are printed with --timings.
   yarnsim::RunSummary stopped;
   const auto print_stopped_timings = [&] {
-    if (timings && stopped.iterations > 0)
+    if (timings && (stopped.iterations > 0 || stopped.stage_times.explicit_path.increments > 0))
       fmt::print(stderr, "{}",
                  yarnsim::stage_times_report(stopped.stage_times, stopped.iterations));
   };

@@ -40,11 +40,6 @@ void ContactStage::set_time(double t) {
 void ContactStage::set_explicit_path(bool explicit_path) {
   for (const auto& set : sets_)
     set->set_explicit_path(explicit_path);
-  // The explicit path projects every pair on every process (replicated).
-  const bool changed = explicit_path != explicit_path_;
-  explicit_path_ = explicit_path;
-  if (changed && partition_)
-    set_partition(partition_);
 }
 
 std::string ContactStage::project(const State& state, bool want_tangent,
@@ -82,7 +77,7 @@ std::vector<ContactCoupling> ContactStage::couplings() const {
 }
 
 bool ContactStage::partitioned() const {
-  return partition_.has_value() && !explicit_path_;
+  return partition_.has_value();
 }
 
 void ContactStage::assemble(Eigen::VectorXd& residual, Assembler& assembler,
@@ -148,7 +143,7 @@ ContactSummary ContactStage::summary() const {
 void ContactStage::set_partition(const std::optional<NodePartition>& owned) {
   partition_ = owned;
   for (auto& set : sets_)
-    set->set_owned(explicit_path_ ? std::nullopt : partition_);
+    set->set_owned(partition_);
   agreed_.reset();
 }
 

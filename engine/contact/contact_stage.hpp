@@ -60,10 +60,10 @@ public:
   std::vector<ContactPoint> points() const;
 
   /// A run over several processes (MPI, partition.hpp): each set projects and assembles only the
-  /// pairs `owned` holds (ContactSet::set_owned) on implicit steps; explicit steps project every
-  /// pair on every process. None: every pair (one process).
+  /// pairs `owned` holds (ContactSet::set_owned), on implicit and explicit steps alike. None:
+  /// every pair (one process).
   void set_partition(const std::optional<NodePartition>& owned);
-  /// Whether the sets now project this process's pairs only (a partition, on an implicit step).
+  /// Whether the sets project this process's pairs only (a run over several processes).
   bool partitioned() const;
   /// This process's own figures (its pairs') and points, which a run over several processes
   /// combines (Simulation): combine_summaries, gathered and sorted points.
@@ -89,7 +89,6 @@ private:
   std::vector<std::unique_ptr<ContactSet>> sets_;
   std::vector<std::string> names_;
   std::optional<NodePartition> partition_;
-  bool explicit_path_ = false;
   std::optional<ContactSummary> agreed_;
   std::vector<ContactPoint> gathered_points_;
 };

@@ -37,10 +37,12 @@
 #include "contact/torsional_friction.hpp"
 #include "engine/math/rotation.hpp"
 #include "engine/solver/checkpoint.hpp"
+#include "engine/solver/distributed.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
@@ -172,6 +174,13 @@ contact::TorsionalFriction torsional_law(const FrictionParameters& friction, dou
                                 friction.torsional_penalty, w, w);
 }
 
+/// Adds the wall time since `tick` to `total` (s) and moves `tick` to now.
+void lap(std::chrono::steady_clock::time_point& tick, double& total) {
+  const auto now = std::chrono::steady_clock::now();
+  total += std::chrono::duration<double>(now - tick).count();
+  tick = now;
+}
+
 /// Rate (1/s) and second rate (1/s^2) of a prescribed table at t by central differences over h.
 double table_rate(const TimeTable& table, double t, double h) {
   return (table.at(t + h) - table.at(t - h)) / (2 * h);
@@ -285,12 +294,17 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
   const State& state = sim.state_;
   const Assembler& assembler = *sim.assembler_;
   const int ne = static_cast<int>(model.elements.size());
+  // Over several processes each takes its own elements (those whose nodes it owns) and the sum
+  // of the processes' values, one non-zero per element, is exact.
+  const NodePartition* owned = sim.partition_ ? &*sim.partition_ : nullptr;
   std::vector<double> omega2(ne, 0.0);
   tbb::parallel_for(tbb::blocked_range<int>(0, ne, 16), [&](const tbb::blocked_range<int>& r) {
     ElementVector f;
     ElementMatrix K, D;
     for (int e = r.begin(); e != r.end(); ++e) {
       const BeamElement& el = model.elements[e];
+      if (owned && !owned->owns(el.nodes[0]))
+        continue;
       const Section& sec = model.sections[el.section];
       const BeamReference& ref = assembler.references()[e];
       beam_internal_force(ref, state.gauss[e], assembler.nodal_values(state, e), f, &K);
@@ -323,6 +337,8 @@ ExplicitStatus CentralDifference::estimate(const Simulation& sim, const Solution
       omega2[e] = std::max(0.0, eig.eigenvalues().maxCoeff());
     }
   });
+  if (owned)
+    distributed::sum(omega2.data(), omega2.size());
 
   ExplicitStatus status;
   double w2_beam = 0;
@@ -612,8 +628,13 @@ void CentralDifference::check_balance(const EnergyBalance& e) const {
 void CentralDifference::evaluate_forces(double t, double h) {
   State& st = sim_.state_;
   const Assembler& assembler = *sim_.assembler_;
+  ExplicitStageTimes& times = sim_.stage_times_.explicit_path;
+  auto tick = std::chrono::steady_clock::now();
+  // Over several processes each adds its own elements' and contact pairs' forces, and the sums
+  // below give every process the whole of them: the nodes are then updated alike everywhere.
+  const NodePartition* owned = sim_.partition_ ? &*sim_.partition_ : nullptr;
   residual_.setZero();
-  sim_.assembler_->add_beams(st, residual_, false, {});
+  sim_.assembler_->add_beams(st, residual_, false, {}, nullptr, owned);
   const double b = step_.rayleigh_stiffness;
   if (b > 0) {
     // Stiffness-proportional damping b K v with the velocity of the step just taken (lagged by
@@ -623,14 +644,24 @@ void CentralDifference::evaluate_forces(double t, double h) {
       velocity_.segment<3>(6 * i + 3) = omega_half_.col(i);
     }
     damped_.setZero();
-    sim_.assembler_->add_beams(st, damped_, false, StiffnessDamping{b, 0.0, &velocity_});
+    sim_.assembler_->add_beams(st, damped_, false, StiffnessDamping{b, 0.0, &velocity_}, nullptr,
+                               owned);
     damped_ -= residual_;
-    sim_.damping_work_ += h * damped_.dot(velocity_);
   }
+  lap(tick, times.beam_forces);
   if (sim_.contact_)
     sim_.contact_->assemble(residual_, *sim_.assembler_, false);
-  if (b > 0)
+  lap(tick, times.other_forces);
+  if (owned) {
+    distributed::sum(residual_.data(), residual_.size());
+    if (b > 0)
+      distributed::sum(damped_.data(), damped_.size());
+    lap(tick, times.sums);
+  }
+  if (b > 0) {
+    sim_.damping_work_ += h * damped_.dot(velocity_);
     residual_ += damped_;
+  }
   loads_ = sim_.external_loads(t);
   for (int i = 0; i < n_; ++i) {
     force_.col(i) = loads_.col(i).head<3>() - residual_.segment<3>(6 * i);
@@ -652,6 +683,7 @@ void CentralDifference::evaluate_forces(double t, double h) {
       }
       sim_.reactions_(c, i) = r;
     }
+  lap(tick, times.other_forces);
 }
 
 void CentralDifference::advance(double h, double t_new) {
@@ -659,6 +691,8 @@ void CentralDifference::advance(double h, double t_new) {
   const Assembler& assembler = *sim_.assembler_;
   const double cm = step_.rayleigh_mass;
   const double keep = 1 - 0.5 * cm * h; // mass-proportional damping, first half of the step
+  ExplicitStageTimes& times = sim_.stage_times_.explicit_path;
+  auto tick = std::chrono::steady_clock::now();
 
   // Half kick and drift: velocities and angular momenta to the middle of the step, positions and
   // rotation increments to its end.
@@ -723,11 +757,17 @@ void CentralDifference::advance(double h, double t_new) {
           h * cm *
           (sim_.mass_(i) * v_half_.col(i).squaredNorm() + omega_half_.col(i).dot(pi_half_.col(i)));
 
+  lap(tick, times.update);
   // Contact at the new positions, then the increment is committed: Gauss-point histories with the
   // rotation increments, triads, the work of the loads.
   if (sim_.contact_) {
     sim_.contact_->set_time(t_new);
-    const std::string veto = sim_.contact_->evaluate(st, false);
+    std::string veto = sim_.contact_->evaluate(st, false);
+    lap(tick, times.contact_search);
+    if (sim_.partition_) {
+      veto = sim_.agree_contact(veto);
+      lap(tick, times.sums);
+    }
     if (!veto.empty())
       fail(veto);
   }
@@ -743,7 +783,9 @@ void CentralDifference::advance(double h, double t_new) {
         work += 0.5 * (sim_.reactions_(c, i) - inertia_(c, i)) * increment_(c, i);
   commit(t_new);
   time_ = t_new;
+  lap(tick, times.update);
   evaluate_forces(t_new, h);
+  tick = std::chrono::steady_clock::now();
   for (int i = 0; i < n_; ++i)
     for (int c = 0; c < 6; ++c)
       if (assembler.equation(6 * i + c) < 0)
@@ -802,6 +844,7 @@ void CentralDifference::advance(double h, double t_new) {
   collect_kick_work();
   for (double k : prescribed_kinetic_) // in node order: the same sum on any thread count
     sim_.prescribed_work_ += k;
+  lap(tick, times.update);
 }
 
 void CentralDifference::commit(double t_new) {
@@ -892,6 +935,7 @@ void CentralDifference::run(SimulationObserver* observer) {
       throw Interrupted(
           fmt::format("interrupted at t = {:.6g} s after increment {}", time_, st.increment));
     if (count_ > 0 && count_ % every == 0) {
+      auto tick = std::chrono::steady_clock::now();
       const ExplicitStatus now = estimate(sim_, step_, scale_, sim_.mass_);
       status_.critical_dt = now.critical_dt;
       status_.stable_dt = now.stable_dt;
@@ -904,6 +948,7 @@ void CentralDifference::run(SimulationObserver* observer) {
       const EnergyBalance e = sim_.energy_balance();
       check_energy(e.kinetic + e.internal + e.contact, "total");
       check_balance(e);
+      lap(tick, sim_.stage_times_.explicit_path.stability);
     }
     // Land exactly on the end time; avoid a sliver of a last increment.
     double h = std::min(h_target_, step_.end_time - time_);
@@ -911,6 +956,7 @@ void CentralDifference::run(SimulationObserver* observer) {
       h = step_.end_time - time_;
     status_.dt = h;
     advance(h, time_ + h);
+    ++sim_.stage_times_.explicit_path.increments;
     ++count_;
     ++status_.increments;
     sim_.explicit_status_ = status_;
@@ -918,6 +964,8 @@ void CentralDifference::run(SimulationObserver* observer) {
 
     const bool last = time_ >= step_.end_time * (1 - 1e-12);
     if (observer && (st.increment % output_every == 0 || last)) {
+      if (sim_.contact_)
+        sim_.gather_contact(); // over several processes: the points and histories for output
       IncrementReport report;
       report.step = index_;
       report.increment = st.increment;
@@ -936,7 +984,7 @@ void CentralDifference::start(double dt) {
   st.alpha.setZero();
   if (sim_.contact_) {
     sim_.contact_->set_time(time_);
-    const std::string veto = sim_.contact_->evaluate(st, false);
+    const std::string veto = sim_.agree_contact(sim_.contact_->evaluate(st, false));
     if (!veto.empty())
       fail(veto);
   }

@@ -70,7 +70,20 @@ public:
 };
 
 /// Wall time spent in each stage of the Newton iterations since the start of the run, s.
+/// Wall time of the explicit path's stages, s, over its increments (yarnsim run --timings).
+struct ExplicitStageTimes {
+  long increments = 0;
+  double contact_search = 0; ///< broad phase and projections at each increment's new positions
+  double beam_forces = 0;    ///< the elements' internal forces (and stiffness damping)
+  double other_forces = 0;   ///< contact forces, loads and reactions
+  double sums = 0;           ///< over MPI processes: forces, contact figures and vetoes
+  double update = 0;         ///< half kicks and drift, commit of histories, triads, pairs
+  double stability = 0;      ///< the stable step's estimate and the energy checks
+};
+
 struct StageTimes {
+  /// The explicit steps' stages (the fields below are the Newton iterations').
+  ExplicitStageTimes explicit_path;
   double broad_phase = 0;       ///< contact candidates: box refit and search
   double narrow_phase = 0;      ///< closest-point projections and pair kernels (beside the beams)
   double beam_assembly = 0;     ///< beam residual and tangent into the matrix
@@ -84,7 +97,8 @@ struct StageTimes {
   double iteration_graph = 0;
 };
 
-/// A table of the stage times, s and ms per Newton iteration, for `yarnsim run --timings`.
+/// A table of the stage times, s and ms per Newton iteration, for `yarnsim run --timings`, and
+/// one of the explicit increments' stages where explicit steps ran.
 std::string stage_times_report(const StageTimes& times, int iterations);
 
 /// Energies of the last completed increment, J. The work of prescribed motions (reactions) is
@@ -249,11 +263,12 @@ private:
   /// itself otherwise. Collective: every process calls it after each projection.
   std::string agree_contact(const std::string& veto);
   /// Over several processes: the contact points (for output) and histories (for checkpoints)
-  /// of the last converged state, gathered from the processes. Collective, after each commit.
+  /// of the last converged state, gathered from the processes. Collective, after each commit of
+  /// an implicit step and before each explicit increment's output.
   void gather_contact();
-  /// Over several processes, where every process holds every pair (after an explicit step or a
-  /// restore) and each is to keep its own from now on: the run's contact figures, points and
-  /// snapshots as every process holds them.
+  /// Over several processes, where every process holds every pair (after a restore) and each is
+  /// to keep its own from now on: the run's contact figures, points and snapshots as every
+  /// process holds them.
   void share_contact_pairs();
   bool stop_requested() const;
   [[noreturn]] void throw_interrupted() const;
