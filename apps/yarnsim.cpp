@@ -153,7 +153,8 @@ int main(int argc, char** argv) {
   run->add_flag("--quiet,-q", quiet, "No progress line");
   run->add_flag("--timings", timings,
                 "At the end (also of a run that stops early), the wall time of each stage of "
-                "the Newton iterations (broad and narrow phase, assembly, factorisation, solve)");
+                "the Newton iterations (broad and narrow phase, assembly, factorisation, solve) "
+                "and of the explicit increments");
   std::string restart;
   int stop_after = 0;
   run->add_option("--restart", restart,

@@ -250,6 +250,18 @@ private:
   static constexpr double kBalanceTolerance = 0.05;
   /// Adds node_work_ to kick_work_ in node order.
   void collect_kick_work();
+  /// Over several processes, each integrates its own nodes and commits its own elements'
+  /// histories (partition.hpp): the owners' values of `fields` (each a column-major array of
+  /// `width` values per node) on every process, an all-gather. Nothing on one process.
+  void share_nodes(std::initializer_list<std::pair<double*, int>> fields);
+  /// What the increments leave on the owners alone (velocities, accelerations, rotation
+  /// vectors, angular momenta and the Gauss-point histories), on every process: before output,
+  /// checkpoints and energy balances, and at the step's end. Collective; nothing on one process.
+  void share_state();
+  /// The kinetic energy of the state and spun_ (J), and over several processes the sums of the
+  /// processes' increments of the energy accumulators since `before` (kick work, damping,
+  /// prescribed and external work, each counted over a process's own nodes).
+  double settle_energies(const std::array<double, 4>& before);
 
   Simulation& sim_;
   const SolutionStep& step_;
@@ -283,6 +295,16 @@ private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> inertia_;
   double h_target_ = 0; ///< s, the step size in use
   long count_ = 0;      ///< increments of this step
+  double kinetic_ = 0;  ///< J, kinetic energy after the last increment
+  /// J, kinetic energy of the rotary inertia that prescribed rotations turn (check_energy)
+  double spun_ = 0;
+  // Over several processes: the nodes this process integrates [first_, last_), its own (every
+  // node on one process), every process's range (empty on one process) and the elements whose
+  // histories it commits (its own; all on one process).
+  int first_ = 0, last_ = 0;
+  std::vector<NodePartition> shares_;
+  std::vector<int> own_elements_;
+  std::vector<double> exchange_; ///< packed node values of share_nodes
 };
 
 ExplicitStatus CentralDifference::estimate(const Simulation& sim, const SolutionStep& step,
@@ -567,6 +589,104 @@ CentralDifference::CentralDifference(Simulation& sim, int step_index)
   bad_.assign(n_, 0);
   node_work_.assign(n_, 0.0);
   prescribed_kinetic_.assign(n_, 0.0);
+  last_ = n_;
+  if (sim.partition_) {
+    first_ = sim.partition_->first;
+    last_ = sim.partition_->last;
+    shares_ = partition_all(sim.model_, distributed::size());
+  }
+  for (int e = 0; e < static_cast<int>(sim.model_.elements.size()); ++e)
+    if (!sim.partition_ || sim.partition_->owns(sim.model_.elements[e].nodes[0]))
+      own_elements_.push_back(e);
+}
+
+void CentralDifference::share_nodes(std::initializer_list<std::pair<double*, int>> fields) {
+  if (shares_.empty())
+    return;
+  int width = 0;
+  for (const auto& f : fields)
+    width += f.second;
+  exchange_.resize(static_cast<std::size_t>(width) * n_);
+  const auto pack = [&](int i, bool in) {
+    double* slot = exchange_.data() + static_cast<std::size_t>(width) * i;
+    for (const auto& [data, w] : fields) {
+      double* column = data + static_cast<std::size_t>(w) * i;
+      if (in)
+        std::copy(column, column + w, slot);
+      else
+        std::copy(slot, slot + w, column);
+      slot += w;
+    }
+  };
+  for (int i = first_; i < last_; ++i)
+    pack(i, true);
+  std::vector<int> counts, offsets;
+  for (const NodePartition& share : shares_) {
+    counts.push_back(width * (share.last - share.first));
+    offsets.push_back(width * share.first);
+  }
+  distributed::share_blocks(exchange_.data(), counts, offsets);
+  for (int i = 0; i < n_; ++i)
+    if (i < first_ || i >= last_)
+      pack(i, false);
+}
+
+void CentralDifference::share_state() {
+  if (shares_.empty())
+    return;
+  State& st = sim_.state_;
+  share_nodes({{st.v_n.data(), 3},
+               {st.W_n.data(), 3},
+               {st.a_n.data(), 3},
+               {st.A_n.data(), 3},
+               {st.rotation_n.data(), 3},
+               {pi_.data(), 3},
+               {v_half_.data(), 3},
+               {omega_half_.data(), 3}});
+  struct History {
+    int element;
+    std::array<GaussState, 2> gauss;
+  };
+  std::vector<History> own;
+  own.reserve(own_elements_.size());
+  for (int e : own_elements_)
+    own.push_back({e, st.gauss[e]});
+  for (const History& h : distributed::gather(own))
+    st.gauss[h.element] = h.gauss;
+}
+
+double CentralDifference::settle_energies(const std::array<double, 4>& before) {
+  const State& st = sim_.state_;
+  if (shares_.empty()) {
+    spun_ = 0;
+    for (int i = 0; i < n_; ++i)
+      if (prescribed_r_[i]) {
+        const Eigen::Vector3d W = st.W_n.col(i);
+        spun_ += 0.5 * W.dot(sim_.rotary_inertia_.col(i).cwiseProduct(W));
+      }
+    return sim_.kinetic_energy();
+  }
+  // Each accumulator's increment over this process's nodes, the kinetic energies of its nodes.
+  double sums[6] = {kick_work_ - before[0],
+                    sim_.damping_work_ - before[1],
+                    sim_.prescribed_work_ - before[2],
+                    sim_.external_work_ - before[3],
+                    0,
+                    0};
+  for (int i = first_; i < last_; ++i) {
+    const Eigen::Vector3d W = st.W_n.col(i);
+    const double rotary = 0.5 * W.dot(sim_.rotary_inertia_.col(i).cwiseProduct(W));
+    sums[4] += 0.5 * sim_.mass_(i) * st.v_n.col(i).squaredNorm() + rotary;
+    if (prescribed_r_[i])
+      sums[5] += rotary;
+  }
+  distributed::sum(sums, 6);
+  kick_work_ = before[0] + sums[0];
+  sim_.damping_work_ = before[1] + sums[1];
+  sim_.prescribed_work_ = before[2] + sums[2];
+  sim_.external_work_ = before[3] + sums[3];
+  spun_ = sums[5];
+  return sums[4];
 }
 
 void CentralDifference::collect_kick_work() {
@@ -587,14 +707,8 @@ void CentralDifference::check_energy(double energy, const char* what) {
   // geometrically.
   // Prescribed rotations turn their nodes' rotary inertia without a reaction for it (see
   // evaluate_forces): that kinetic energy counts as supplied.
-  double spun = 0;
-  for (int i = 0; i < n_; ++i)
-    if (prescribed_r_[i]) {
-      const Eigen::Vector3d W = sim_.state_.W_n.col(i);
-      spun += 0.5 * W.dot(sim_.rotary_inertia_.col(i).cwiseProduct(W));
-    }
   const double supplied =
-      supplied_start_ + kick_work_ + sim_.prescribed_work_ - prescribed_start_ + spun;
+      supplied_start_ + kick_work_ + sim_.prescribed_work_ - prescribed_start_ + spun_;
   supplied_max_ = std::max(supplied_max_, supplied);
   if (!std::isfinite(energy))
     fail(fmt::format("the {} energy is not finite: the integration is unstable", what));
@@ -659,7 +773,11 @@ void CentralDifference::evaluate_forces(double t, double h) {
     lap(tick, times.sums);
   }
   if (b > 0) {
-    sim_.damping_work_ += h * damped_.dot(velocity_);
+    // Over several processes, this process's nodes: their velocities alone are current.
+    const int from = 6 * first_, count = 6 * (last_ - first_);
+    sim_.damping_work_ +=
+        h * (shares_.empty() ? damped_.dot(velocity_)
+                             : damped_.segment(from, count).dot(velocity_.segment(from, count)));
     residual_ += damped_;
   }
   loads_ = sim_.external_loads(t);
@@ -693,56 +811,67 @@ void CentralDifference::advance(double h, double t_new) {
   const double keep = 1 - 0.5 * cm * h; // mass-proportional damping, first half of the step
   ExplicitStageTimes& times = sim_.stage_times_.explicit_path;
   auto tick = std::chrono::steady_clock::now();
+  const std::array<double, 4> before{kick_work_, sim_.damping_work_, sim_.prescribed_work_,
+                                     sim_.external_work_};
 
   // Half kick and drift: velocities and angular momenta to the middle of the step, positions and
-  // rotation increments to its end.
+  // rotation increments to its end. Over several processes each integrates its own nodes and
+  // shares their positions and rotation increments (every process's contact pairs need them).
   std::fill(bad_.begin(), bad_.end(), 0);
-  tbb::parallel_for(tbb::blocked_range<int>(0, n_, 256), [&](const tbb::blocked_range<int>& r) {
-    for (int i = r.begin(); i != r.end(); ++i) {
-      double work = 0;
-      for (int c = 0; c < 3; ++c) {
-        if (assembler.equation(6 * i + c) >= 0) {
-          v_half_(c, i) = keep * st.v_n(c, i) + 0.5 * h * force_(c, i) / sim_.mass_(i);
-          st.x(c, i) = st.x_n(c, i) + h * v_half_(c, i);
-          work += 0.25 * h * loads_(c, i) * (st.v_n(c, i) + v_half_(c, i));
-        } else {
-          st.x(c, i) = st.x_n(c, i); // fixed, or set by the prescribed motion below
+  tbb::parallel_for(
+      tbb::blocked_range<int>(first_, last_, 256), [&](const tbb::blocked_range<int>& r) {
+        for (int i = r.begin(); i != r.end(); ++i) {
+          double work = 0;
+          for (int c = 0; c < 3; ++c) {
+            if (assembler.equation(6 * i + c) >= 0) {
+              v_half_(c, i) = keep * st.v_n(c, i) + 0.5 * h * force_(c, i) / sim_.mass_(i);
+              st.x(c, i) = st.x_n(c, i) + h * v_half_(c, i);
+              work += 0.25 * h * loads_(c, i) * (st.v_n(c, i) + v_half_(c, i));
+            } else {
+              st.x(c, i) = st.x_n(c, i); // fixed, or set by the prescribed motion below
+            }
+          }
+          node_work_[i] = work;
+          if (prescribed_r_[i])
+            continue;
+          const std::array<bool, 3> free{assembler.equation(6 * i + 3) >= 0,
+                                         assembler.equation(6 * i + 4) >= 0,
+                                         assembler.equation(6 * i + 5) >= 0};
+          const Eigen::Vector3d omega_n = st.Q_n[i] * st.W_n.col(i);
+          pi_half_.col(i) = keep * pi_.col(i) + 0.5 * h * moment_.col(i);
+          Eigen::Vector3d omega = omega_half_.col(i);
+          if (!midpoint_angular_velocity(st.Q_n[i], sim_.rotary_inertia_.col(i), pi_half_.col(i),
+                                         free, h, omega)) {
+            bad_[i] = 1;
+            continue;
+          }
+          omega_half_.col(i) = omega;
+          for (int c = 0; c < 3; ++c)
+            if (free[c])
+              node_work_[i] += 0.25 * h * loads_(3 + c, i) * (omega_n(c) + omega(c));
+          const Eigen::Vector3d phi = h * omega;
+          if (phi.norm() > 1.0) {
+            bad_[i] = 2;
+            continue;
+          }
+          st.alpha.col(i) = rodrigues_of_vector(phi);
         }
-      }
-      node_work_[i] = work;
-      if (prescribed_r_[i])
-        continue;
-      const std::array<bool, 3> free{assembler.equation(6 * i + 3) >= 0,
-                                     assembler.equation(6 * i + 4) >= 0,
-                                     assembler.equation(6 * i + 5) >= 0};
-      const Eigen::Vector3d omega_n = st.Q_n[i] * st.W_n.col(i);
-      pi_half_.col(i) = keep * pi_.col(i) + 0.5 * h * moment_.col(i);
-      Eigen::Vector3d omega = omega_half_.col(i);
-      if (!midpoint_angular_velocity(st.Q_n[i], sim_.rotary_inertia_.col(i), pi_half_.col(i), free,
-                                     h, omega)) {
-        bad_[i] = 1;
-        continue;
-      }
-      omega_half_.col(i) = omega;
-      for (int c = 0; c < 3; ++c)
-        if (free[c])
-          node_work_[i] += 0.25 * h * loads_(3 + c, i) * (omega_n(c) + omega(c));
-      const Eigen::Vector3d phi = h * omega;
-      if (phi.norm() > 1.0) {
-        bad_[i] = 2;
-        continue;
-      }
-      st.alpha.col(i) = rodrigues_of_vector(phi);
-    }
-  });
+      });
   collect_kick_work();
+  if (!shares_.empty()) {
+    std::vector<double> bad(bad_.begin(), bad_.end());
+    lap(tick, times.update);
+    share_nodes({{st.x.data(), 3}, {st.alpha.data(), 3}, {bad.data(), 1}});
+    lap(tick, times.sums);
+    std::copy(bad.begin(), bad.end(), bad_.begin());
+  }
   for (int i = 0; i < n_; ++i)
     if (bad_[i])
       fail(fmt::format("node {} {}", sim_.model_.node_label(i),
                        bad_[i] == 1 ? "spins too fast for its midpoint rotation to converge"
                                     : "turns by more than 1 rad in one increment"));
   sim_.apply_prescribed(t_new);
-  for (int i = 0; i < n_; ++i) {
+  for (int i = first_; i < last_; ++i) {
     for (int c = 0; c < 3; ++c)
       if (assembler.equation(6 * i + c) < 0)
         v_half_(c, i) = (st.x(c, i) - st.x_n(c, i)) / h;
@@ -752,7 +881,7 @@ void CentralDifference::advance(double h, double t_new) {
     increment_.col(i).tail<3>() = rotation_vector_of_rodrigues<double>(st.alpha.col(i));
   }
   if (cm > 0)
-    for (int i = 0; i < n_; ++i)
+    for (int i = first_; i < last_; ++i)
       sim_.damping_work_ +=
           h * cm *
           (sim_.mass_(i) * v_half_.col(i).squaredNorm() + omega_half_.col(i).dot(pi_half_.col(i)));
@@ -777,16 +906,18 @@ void CentralDifference::advance(double h, double t_new) {
   // difference quotient, misses a kink of the table between its samples: a pull started at a
   // velocity would bring kinetic energy that no work paid for.)
   double work = 0;
-  for (int i = 0; i < n_; ++i)
+  for (int i = first_; i < last_; ++i)
     for (int c = 0; c < 6; ++c)
       if (assembler.equation(6 * i + c) < 0)
         work += 0.5 * (sim_.reactions_(c, i) - inertia_(c, i)) * increment_(c, i);
   commit(t_new);
   time_ = t_new;
   lap(tick, times.update);
+  share_nodes({{st.Q_n.data()->data(), 9}}); // the triads the owners committed
+  lap(tick, times.sums);
   evaluate_forces(t_new, h);
   tick = std::chrono::steady_clock::now();
-  for (int i = 0; i < n_; ++i)
+  for (int i = first_; i < last_; ++i)
     for (int c = 0; c < 6; ++c)
       if (assembler.equation(6 * i + c) < 0)
         work += 0.5 * (sim_.reactions_(c, i) - inertia_(c, i)) * increment_(c, i);
@@ -794,57 +925,61 @@ void CentralDifference::advance(double h, double t_new) {
 
   // Second half kick.
   const double damp = 1 + 0.5 * cm * h;
-  tbb::parallel_for(tbb::blocked_range<int>(0, n_, 256), [&](const tbb::blocked_range<int>& r) {
-    for (int i = r.begin(); i != r.end(); ++i) {
-      const double m = sim_.mass_(i);
-      node_work_[i] = 0;
-      prescribed_kinetic_[i] = 0;
-      for (int c = 0; c < 3; ++c) {
-        if (assembler.equation(6 * i + c) >= 0) {
-          st.v_n(c, i) = (v_half_(c, i) + 0.5 * h * force_(c, i) / m) / damp;
-          st.a_n(c, i) = force_(c, i) / m;
-          node_work_[i] += 0.25 * h * loads_(c, i) * (v_half_(c, i) + st.v_n(c, i));
-        } else if (const TimeTable* table = prescribed_u_[3 * i + c]) {
-          const double v_old = st.v_n(c, i);
-          st.v_n(c, i) = table_rate(*table, t_new, h);
-          st.a_n(c, i) = table_second_rate(*table, t_new, h);
-          prescribed_kinetic_[i] += 0.5 * m * (st.v_n(c, i) * st.v_n(c, i) - v_old * v_old);
+  tbb::parallel_for(
+      tbb::blocked_range<int>(first_, last_, 256), [&](const tbb::blocked_range<int>& r) {
+        for (int i = r.begin(); i != r.end(); ++i) {
+          const double m = sim_.mass_(i);
+          node_work_[i] = 0;
+          prescribed_kinetic_[i] = 0;
+          for (int c = 0; c < 3; ++c) {
+            if (assembler.equation(6 * i + c) >= 0) {
+              st.v_n(c, i) = (v_half_(c, i) + 0.5 * h * force_(c, i) / m) / damp;
+              st.a_n(c, i) = force_(c, i) / m;
+              node_work_[i] += 0.25 * h * loads_(c, i) * (v_half_(c, i) + st.v_n(c, i));
+            } else if (const TimeTable* table = prescribed_u_[3 * i + c]) {
+              const double v_old = st.v_n(c, i);
+              st.v_n(c, i) = table_rate(*table, t_new, h);
+              st.a_n(c, i) = table_second_rate(*table, t_new, h);
+              prescribed_kinetic_[i] += 0.5 * m * (st.v_n(c, i) * st.v_n(c, i) - v_old * v_old);
+            }
+          }
+          const Eigen::Matrix3d& Q = st.Q_n[i];
+          const Eigen::Vector3d J = sim_.rotary_inertia_.col(i);
+          if (prescribed_r_[i]) {
+            st.W_n.col(i) = Q.transpose() * omega_half_.col(i);
+            pi_.col(i) = Q * J.cwiseProduct(st.W_n.col(i));
+            continue;
+          }
+          const std::array<bool, 3> free{assembler.equation(6 * i + 3) >= 0,
+                                         assembler.equation(6 * i + 4) >= 0,
+                                         assembler.equation(6 * i + 5) >= 0};
+          const Eigen::Vector3d pi = (pi_half_.col(i) + 0.5 * h * moment_.col(i)) / damp;
+          const Eigen::Vector3d omega = solve_free(Q, J, pi, free);
+          st.W_n.col(i) = Q.transpose() * omega;
+          for (int c = 0; c < 3; ++c)
+            if (free[c])
+              node_work_[i] += 0.25 * h * loads_(3 + c, i) * (omega_half_(c, i) + omega(c));
+          if (free[0] && free[1] && free[2]) {
+            pi_.col(i) = pi; // kept as integrated: the angular momentum balance stays exact
+            // Euler's equations for the material angular acceleration (for a following Newmark
+            // step).
+            const Eigen::Vector3d W = st.W_n.col(i);
+            st.A_n.col(i) =
+                (Q.transpose() * moment_.col(i) - W.cross(J.cwiseProduct(W))).cwiseQuotient(J);
+          } else {
+            pi_.col(i) = Q * J.cwiseProduct(st.W_n.col(i));
+            for (int c = 0; c < 3; ++c)
+              if (free[c])
+                pi_(c, i) = pi(c);
+          }
         }
-      }
-      const Eigen::Matrix3d& Q = st.Q_n[i];
-      const Eigen::Vector3d J = sim_.rotary_inertia_.col(i);
-      if (prescribed_r_[i]) {
-        st.W_n.col(i) = Q.transpose() * omega_half_.col(i);
-        pi_.col(i) = Q * J.cwiseProduct(st.W_n.col(i));
-        continue;
-      }
-      const std::array<bool, 3> free{assembler.equation(6 * i + 3) >= 0,
-                                     assembler.equation(6 * i + 4) >= 0,
-                                     assembler.equation(6 * i + 5) >= 0};
-      const Eigen::Vector3d pi = (pi_half_.col(i) + 0.5 * h * moment_.col(i)) / damp;
-      const Eigen::Vector3d omega = solve_free(Q, J, pi, free);
-      st.W_n.col(i) = Q.transpose() * omega;
-      for (int c = 0; c < 3; ++c)
-        if (free[c])
-          node_work_[i] += 0.25 * h * loads_(3 + c, i) * (omega_half_(c, i) + omega(c));
-      if (free[0] && free[1] && free[2]) {
-        pi_.col(i) = pi; // kept as integrated: the angular momentum balance stays exact
-        // Euler's equations for the material angular acceleration (for a following Newmark step).
-        const Eigen::Vector3d W = st.W_n.col(i);
-        st.A_n.col(i) =
-            (Q.transpose() * moment_.col(i) - W.cross(J.cwiseProduct(W))).cwiseQuotient(J);
-      } else {
-        pi_.col(i) = Q * J.cwiseProduct(st.W_n.col(i));
-        for (int c = 0; c < 3; ++c)
-          if (free[c])
-            pi_(c, i) = pi(c);
-      }
-    }
-  });
+      });
   collect_kick_work();
   for (double k : prescribed_kinetic_) // in node order: the same sum on any thread count
     sim_.prescribed_work_ += k;
   lap(tick, times.update);
+  kinetic_ = settle_energies(before);
+  lap(tick, shares_.empty() ? times.update : times.sums);
 }
 
 void CentralDifference::commit(double t_new) {
@@ -852,20 +987,23 @@ void CentralDifference::commit(double t_new) {
   const Assembler& assembler = *sim_.assembler_;
   // Work of the loads by the trapezoidal rule, with the loads before the triads are updated.
   const Eigen::Matrix<double, 6, Eigen::Dynamic> load = sim_.external_loads(t_new);
-  for (int i = 0; i < n_; ++i)
+  for (int i = first_; i < last_; ++i)
     sim_.external_work_ += 0.5 * (load.col(i) + sim_.load_n_.col(i)).dot(increment_.col(i));
-  const int ne = static_cast<int>(st.gauss.size());
+  const int ne = static_cast<int>(own_elements_.size());
   tbb::parallel_for(tbb::blocked_range<int>(0, ne, 32), [&](const tbb::blocked_range<int>& r) {
-    for (int e = r.begin(); e != r.end(); ++e)
+    for (int k = r.begin(); k != r.end(); ++k) {
+      const int e = own_elements_[k];
       committed_history(assembler.references()[e], assembler.nodal_values(st, e), st.gauss[e]);
-  });
-  tbb::parallel_for(tbb::blocked_range<int>(0, n_, 256), [&](const tbb::blocked_range<int>& r) {
-    for (int i = r.begin(); i != r.end(); ++i) {
-      st.Q_n[i] = polished(rodrigues_rotation<double>(st.alpha.col(i)) * st.Q_n[i]);
-      st.rotation_n.col(i) =
-          unwrap_rotation(st.Q_n[i] * sim_.Q0_[i].transpose(), st.rotation_n.col(i));
     }
   });
+  tbb::parallel_for(
+      tbb::blocked_range<int>(first_, last_, 256), [&](const tbb::blocked_range<int>& r) {
+        for (int i = r.begin(); i != r.end(); ++i) {
+          st.Q_n[i] = polished(rodrigues_rotation<double>(st.alpha.col(i)) * st.Q_n[i]);
+          st.rotation_n.col(i) =
+              unwrap_rotation(st.Q_n[i] * sim_.Q0_[i].transpose(), st.rotation_n.col(i));
+        }
+      });
   if (sim_.contact_)
     sim_.contact_->commit();
   st.x_n = st.x;
@@ -936,6 +1074,7 @@ void CentralDifference::run(SimulationObserver* observer) {
           fmt::format("interrupted at t = {:.6g} s after increment {}", time_, st.increment));
     if (count_ > 0 && count_ % every == 0) {
       auto tick = std::chrono::steady_clock::now();
+      share_state();
       const ExplicitStatus now = estimate(sim_, step_, scale_, sim_.mass_);
       status_.critical_dt = now.critical_dt;
       status_.stable_dt = now.stable_dt;
@@ -960,10 +1099,11 @@ void CentralDifference::run(SimulationObserver* observer) {
     ++count_;
     ++status_.increments;
     sim_.explicit_status_ = status_;
-    check_energy(sim_.kinetic_energy(), "kinetic");
+    check_energy(kinetic_, "kinetic");
 
     const bool last = time_ >= step_.end_time * (1 - 1e-12);
     if (observer && (st.increment % output_every == 0 || last)) {
+      share_state();
       if (sim_.contact_)
         sim_.gather_contact(); // over several processes: the points and histories for output
       IncrementReport report;
@@ -974,6 +1114,7 @@ void CentralDifference::run(SimulationObserver* observer) {
       observer->on_increment(sim_, report);
     }
   }
+  share_state(); // the state as one process holds it, for the steps after this one
   time_ = step_.end_time;
 }
 

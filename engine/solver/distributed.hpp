@@ -33,6 +33,11 @@ Share share(int n);
 /// collective call. Nothing to do in a one-process run.
 void sum(double* data, std::size_t n);
 
+/// Process r's block of `data`, the counts[r] values from offsets[r] (one entry per process,
+/// blocks that do not overlap), from process r to every process: an all-gather in place
+/// (collective). Nothing to do in a one-process run.
+void share_blocks(double* data, const std::vector<int>& counts, const std::vector<int>& offsets);
+
 /// The largest of `local` over the processes (collective); `local` in a one-process run.
 double largest(double local);
 /// The smallest of `local` over the processes (collective); `local` in a one-process run.

@@ -5,7 +5,7 @@
 # splines and segments, position, gap, force, normal), the same on 1 and 2 threads.
 # Cases: the crossing beams (spline contact, touching at the start), a 3 x 3 biaxial weave
 # (curves.csv, several contacts per increment), the explicit flying beam (energy.csv), and the
-# stage times of --timings (also of a run stopped early).
+# stage times of --timings (also of a run stopped early, and of an explicit run).
 # Usage: monitors.sh YARNSIM REPO WORKDIR
 set -u
 yarnsim="$1"; repo="$2"; work="$3"
@@ -124,6 +124,18 @@ code=$?
 [ "$code" -eq 130 ] || { echo "FAIL timings of a stopped run: exit $code, expected 130"; fail=1; }
 grep -Eq "^stage times over [1-9][0-9]* Newton iterations \(wall\):$" timings-stopped.txt ||
   { echo "FAIL timings of a stopped run: no stage table: $(cat timings-stopped.txt)"; fail=1; }
+# ... and of an explicit run: over its increments, the explicit stages alone.
+"$yarnsim" run "$repo/examples/flying-beam-explicit.toml" -o timings-explicit -q --threads 1 \
+  --timings 2> timings-explicit.txt || { echo "FAIL timings of an explicit run: exit $?"; fail=1; }
+increments=$(sed -n 's/^done: \([0-9]*\) increments, 0 Newton iterations.*/\1/p' timings-explicit.txt)
+grep -q "^stage times over ${increments:-none} explicit increments (wall):$" timings-explicit.txt ||
+  { echo "FAIL timings of an explicit run: no table over its ${increments:-?} increments: $(cat timings-explicit.txt)"; fail=1; }
+for stage in "contact search" "beam forces" "kicks, drift and commit" "stable step"; do
+  grep -Eq "^  $stage.* [0-9]+\.[0-9]{3} s +[0-9]+\.[0-9]{4} ms/increment$" timings-explicit.txt ||
+    { echo "FAIL timings of an explicit run: no row '$stage'"; fail=1; }
+done
+! grep -q "Newton iterations (wall)" timings-explicit.txt ||
+  { echo "FAIL timings of an explicit run: a table of Newton iterations it did not take"; fail=1; }
 
 if [ "$fail" -eq 0 ]; then echo "monitors: all checks passed"; fi
 exit "$fail"
