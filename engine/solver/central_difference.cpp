@@ -254,7 +254,7 @@ private:
   /// histories (partition.hpp): the owners' values of `fields` (each a column-major array of
   /// `width` values per node) on every process, an all-gather. Nothing on one process.
   void share_nodes(std::initializer_list<std::pair<double*, int>> fields);
-  /// What the increments leave on the owners alone (velocities, accelerations, rotation
+  /// What the increments leave on the owners alone (triads, velocities, accelerations, rotation
   /// vectors, angular momenta and the Gauss-point histories), on every process: before output,
   /// checkpoints and energy balances, and at the step's end. Collective; nothing on one process.
   void share_state();
@@ -305,6 +305,9 @@ private:
   std::vector<NodePartition> shares_;
   std::vector<int> own_elements_;
   std::vector<double> exchange_; ///< packed node values of share_nodes
+  /// Whether the processes' contact pairs read other processes' triads (the surface contact's
+  /// sections), which are then shared at every increment; else only with share_state.
+  bool triads_each_increment_ = false;
 };
 
 ExplicitStatus CentralDifference::estimate(const Simulation& sim, const SolutionStep& step,
@@ -594,6 +597,7 @@ CentralDifference::CentralDifference(Simulation& sim, int step_index)
     first_ = sim.partition_->first;
     last_ = sim.partition_->last;
     shares_ = partition_all(sim.model_, distributed::size());
+    triads_each_increment_ = sim.contact_ && sim.contact_->surface() != nullptr;
   }
   for (int e = 0; e < static_cast<int>(sim.model_.elements.size()); ++e)
     if (!sim.partition_ || sim.partition_->owns(sim.model_.elements[e].nodes[0]))
@@ -635,7 +639,8 @@ void CentralDifference::share_state() {
   if (shares_.empty())
     return;
   State& st = sim_.state_;
-  share_nodes({{st.v_n.data(), 3},
+  share_nodes({{st.Q_n.data()->data(), 9},
+               {st.v_n.data(), 3},
                {st.W_n.data(), 3},
                {st.a_n.data(), 3},
                {st.A_n.data(), 3},
@@ -913,8 +918,10 @@ void CentralDifference::advance(double h, double t_new) {
   commit(t_new);
   time_ = t_new;
   lap(tick, times.update);
-  share_nodes({{st.Q_n.data()->data(), 9}}); // the triads the owners committed
-  lap(tick, times.sums);
+  if (triads_each_increment_) {
+    share_nodes({{st.Q_n.data()->data(), 9}}); // the triads the owners committed
+    lap(tick, times.sums);
+  }
   evaluate_forces(t_new, h);
   tick = std::chrono::steady_clock::now();
   for (int i = first_; i < last_; ++i)
