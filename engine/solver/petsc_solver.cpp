@@ -52,10 +52,13 @@ public:
   PetscSolver(const PetscSolver&) = delete;
   PetscSolver& operator=(const PetscSolver&) = delete;
 
-  /// A new pattern: PETSc's matrix, vectors and solver are made afresh; the entries of this
-  /// process's rows are found once, in the order of PETSc's arrays (diagonal block, then the
-  /// off-diagonal block's columns in ascending order, both sorted within a row), so that a
-  /// factorisation copies values without a search.
+  /// A new pattern: PETSc's matrix, vectors and solver are made afresh. Given a whole tangent,
+  /// the entries of this process's rows are found once, in the order of PETSc's arrays (diagonal
+  /// block, then the off-diagonal block's columns in ascending order, both sorted within a row),
+  /// so that a factorisation copies values without a search. Given this process's own entries
+  /// (set_own_entries), their coordinates, in any row, are handed to PETSc once
+  /// (MatSetPreallocationCOO), which sums the processes' values into the owners' rows at each
+  /// factorisation (MatSetValuesCOO).
   void analyze(const SparseMatrix& A) override {
     release();
     if (symmetric_)
@@ -66,73 +69,18 @@ public:
     begin_ = rows.begin;
     end_ = rows.end;
     const PetscInt m = end_ - begin_;
-
-    // This process's rows of the column-major M: (row, column, index into M's values).
-    struct Entry {
-      PetscInt row, col;
-      int k;
-    };
-    std::vector<Entry> entries;
-    for (int col = 0; col < M.outerSize(); ++col)
-      for (int k = M.outerIndexPtr()[col]; k < M.outerIndexPtr()[col + 1]; ++k) {
-        const int row = M.innerIndexPtr()[k];
-        if (row >= begin_ && row < end_)
-          entries.push_back({row, col, k});
-      }
-    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
-      return a.row != b.row ? a.row < b.row : a.col < b.col;
-    });
-    std::vector<PetscInt> diagonal(static_cast<std::size_t>(m), 0), off(diagonal);
-    for (const Entry& e : entries)
-      ++(e.col >= begin_ && e.col < end_ ? diagonal
-                                         : off)[static_cast<std::size_t>(e.row - begin_)];
-
     check(MatCreate(PETSC_COMM_WORLD, &matrix_), "MatCreate");
     check(MatSetSizes(matrix_, m, m, n, n), "MatSetSizes");
     check(MatSetType(matrix_, MATAIJ), "MatSetType");
-    check(MatSeqAIJSetPreallocation(matrix_, 0, diagonal.data()), "MatSeqAIJSetPreallocation");
-    check(MatMPIAIJSetPreallocation(matrix_, 0, diagonal.data(), 0, off.data()),
-          "MatMPIAIJSetPreallocation");
-    check(MatSetOption(matrix_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
+    own_source_.clear();
+    if (!own_.empty())
+      own_pattern(A, M);
+    else
+      whole_pattern(M);
     if (symmetric_) {
       check(MatSetOption(matrix_, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
       check(MatSetOption(matrix_, MAT_SYMMETRY_ETERNAL, PETSC_TRUE), "MatSetOption");
     }
-    // The pattern, row by row (zeros); the values come with each factorisation.
-    std::vector<PetscInt> cols;
-    std::vector<PetscScalar> zeros;
-    for (std::size_t a = 0; a < entries.size();) {
-      std::size_t b = a;
-      cols.clear();
-      while (b < entries.size() && entries[b].row == entries[a].row)
-        cols.push_back(entries[b++].col);
-      zeros.assign(cols.size(), 0.0);
-      const PetscInt row = entries[a].row;
-      check(MatSetValues(matrix_, 1, &row, static_cast<PetscInt>(cols.size()), cols.data(),
-                         zeros.data(), INSERT_VALUES),
-            "MatSetValues");
-      a = b;
-    }
-    check(MatAssemblyBegin(matrix_, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
-    check(MatAssemblyEnd(matrix_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
-
-    // PETSc's local arrays: one block (sequential AIJ) on one process; the diagonal and the
-    // off-diagonal blocks on several, the latter's columns compressed in ascending order.
-    diagonal_source_.clear();
-    off_source_.clear();
-    for (const Entry& e : entries)
-      (e.col >= begin_ && e.col < end_ ? diagonal_source_ : off_source_).push_back(e.k);
-    Mat diagonal_block = matrix_, off_block = nullptr;
-    if (distributed::size() > 1)
-      check(MatMPIAIJGetSeqAIJ(matrix_, &diagonal_block, &off_block, nullptr),
-            "MatMPIAIJGetSeqAIJ");
-    check_block(diagonal_block, diagonal_source_.size(), "diagonal");
-    if (off_block)
-      check_block(off_block, off_source_.size(), "off-diagonal");
-    else if (!off_source_.empty())
-      throw LinearSolverError("PETSc: a one-process matrix with entries off its diagonal block");
-    diagonal_block_ = diagonal_block;
-    off_block_ = off_block;
 
     check(MatCreateVecs(matrix_, &x_, &b_), "MatCreateVecs");
     check(VecScatterCreateToAll(x_, &gather_, &x_all_), "VecScatterCreateToAll");
@@ -153,11 +101,18 @@ public:
     if (symmetric_)
       sym_.update(A);
     const double* values = symmetric_ ? sym_.matrix().valuePtr() : A.valuePtr();
-    fill(diagonal_block_, diagonal_source_, values);
-    if (off_block_)
-      fill(off_block_, off_source_, values);
-    check(PetscObjectStateIncrease(reinterpret_cast<PetscObject>(matrix_)),
-          "PetscObjectStateIncrease");
+    if (!own_.empty()) {
+      // Each process's own entries: PETSc sums them over the processes into the owners' rows.
+      for (std::size_t i = 0; i < own_source_.size(); ++i)
+        own_values_[i] = values[own_source_[i]];
+      check(MatSetValuesCOO(matrix_, own_values_.data(), INSERT_VALUES), "MatSetValuesCOO");
+    } else {
+      fill(diagonal_block_, diagonal_source_, values);
+      if (off_block_)
+        fill(off_block_, off_source_, values);
+      check(PetscObjectStateIncrease(reinterpret_cast<PetscObject>(matrix_)),
+            "PetscObjectStateIncrease");
+    }
     // The numeric factorisation here (PCSetUp sees the matrix's new state; KSPSolve then finds
     // it done), the symbolic one too after a new pattern.
     PC pc;
@@ -199,8 +154,99 @@ public:
   }
 
   std::string name() const override { return "petsc"; }
+  bool sums_partial_tangents() const override { return distributed::size() > 1; }
+  void set_own_entries(std::vector<char> own) override { own_ = std::move(own); }
 
 private:
+  /// The pattern of a whole tangent M: this process's rows, preallocated and set (zeros), and
+  /// the indices in M of PETSc's local arrays' entries.
+  void whole_pattern(const SparseMatrix& M) {
+    const PetscInt m = end_ - begin_;
+    // This process's rows of the column-major M: (row, column, index into M's values).
+    struct Entry {
+      PetscInt row, col;
+      int k;
+    };
+    std::vector<Entry> entries;
+    for (int col = 0; col < M.outerSize(); ++col)
+      for (int k = M.outerIndexPtr()[col]; k < M.outerIndexPtr()[col + 1]; ++k) {
+        const int row = M.innerIndexPtr()[k];
+        if (row >= begin_ && row < end_)
+          entries.push_back({row, col, k});
+      }
+    std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+      return a.row != b.row ? a.row < b.row : a.col < b.col;
+    });
+    std::vector<PetscInt> diagonal(static_cast<std::size_t>(m), 0), off(diagonal);
+    for (const Entry& e : entries)
+      ++(e.col >= begin_ && e.col < end_ ? diagonal
+                                         : off)[static_cast<std::size_t>(e.row - begin_)];
+    check(MatSeqAIJSetPreallocation(matrix_, 0, diagonal.data()), "MatSeqAIJSetPreallocation");
+    check(MatMPIAIJSetPreallocation(matrix_, 0, diagonal.data(), 0, off.data()),
+          "MatMPIAIJSetPreallocation");
+    check(MatSetOption(matrix_, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_TRUE), "MatSetOption");
+    // The pattern, row by row (zeros); the values come with each factorisation.
+    std::vector<PetscInt> cols;
+    std::vector<PetscScalar> zeros;
+    for (std::size_t a = 0; a < entries.size();) {
+      std::size_t b = a;
+      cols.clear();
+      while (b < entries.size() && entries[b].row == entries[a].row)
+        cols.push_back(entries[b++].col);
+      zeros.assign(cols.size(), 0.0);
+      const PetscInt row = entries[a].row;
+      check(MatSetValues(matrix_, 1, &row, static_cast<PetscInt>(cols.size()), cols.data(),
+                         zeros.data(), INSERT_VALUES),
+            "MatSetValues");
+      a = b;
+    }
+    check(MatAssemblyBegin(matrix_, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
+    check(MatAssemblyEnd(matrix_, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
+
+    // PETSc's local arrays: one block (sequential AIJ) on one process; the diagonal and the
+    // off-diagonal blocks on several, the latter's columns compressed in ascending order.
+    diagonal_source_.clear();
+    off_source_.clear();
+    for (const Entry& e : entries)
+      (e.col >= begin_ && e.col < end_ ? diagonal_source_ : off_source_).push_back(e.k);
+    Mat diagonal_block = matrix_, off_block = nullptr;
+    if (distributed::size() > 1)
+      check(MatMPIAIJGetSeqAIJ(matrix_, &diagonal_block, &off_block, nullptr),
+            "MatMPIAIJGetSeqAIJ");
+    check_block(diagonal_block, diagonal_source_.size(), "diagonal");
+    if (off_block)
+      check_block(off_block, off_source_.size(), "off-diagonal");
+    else if (!off_source_.empty())
+      throw LinearSolverError("PETSc: a one-process matrix with entries off its diagonal block");
+    diagonal_block_ = diagonal_block;
+    off_block_ = off_block;
+  }
+
+  /// The pattern of the entries of M this process assembled (own_): for LDL^T those of the
+  /// symmetric part whose entry or transpose it assembled, the symmetric part of its partial
+  /// tangent being its share of the whole's. Their coordinates go to PETSc once; the matrix's
+  /// pattern is their union over the processes.
+  void own_pattern(const SparseMatrix& A, const SparseMatrix& M) {
+    if (own_.size() != static_cast<std::size_t>(A.nonZeros()))
+      throw std::logic_error(
+          fmt::format("PETSc: {} own entries for a tangent of {}", own_.size(), A.nonZeros()));
+    std::vector<PetscInt> coo_i, coo_j;
+    for (int col = 0; col < M.outerSize(); ++col)
+      for (int k = M.outerIndexPtr()[col]; k < M.outerIndexPtr()[col + 1]; ++k)
+        if (own_[k] || (symmetric_ && own_[sym_.transpose(k)])) {
+          coo_i.push_back(M.innerIndexPtr()[k]);
+          coo_j.push_back(col);
+          own_source_.push_back(k);
+        }
+    own_values_.resize(own_source_.size());
+    check(MatSetPreallocationCOO(matrix_, static_cast<PetscCount>(coo_i.size()), coo_i.data(),
+                                 coo_j.data()),
+          "MatSetPreallocationCOO");
+    diagonal_source_.clear();
+    off_source_.clear();
+    diagonal_block_ = off_block_ = nullptr;
+  }
+
   /// The block's stored entries must be this process's entries that fall in it, one each.
   static void check_block(Mat block, std::size_t expected, const char* which) {
     MatInfo info;
@@ -232,6 +278,11 @@ private:
   Mat matrix_ = nullptr;
   Mat diagonal_block_ = nullptr, off_block_ = nullptr; ///< matrix_'s local blocks (not owned)
   std::vector<int> diagonal_source_, off_source_;      ///< per entry of a block: the index in M
+  /// This process's own entries (set_own_entries; empty: it holds the whole tangent), and for
+  /// each of those of M it hands in (MatSetPreallocationCOO's order) its index in M and value.
+  std::vector<char> own_;
+  std::vector<int> own_source_;
+  std::vector<PetscScalar> own_values_;
   Vec b_ = nullptr, x_ = nullptr, x_all_ = nullptr;
   VecScatter gather_ = nullptr;
   KSP ksp_ = nullptr;
