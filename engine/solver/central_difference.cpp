@@ -533,7 +533,13 @@ ExplicitStatus CentralDifference::scale_to_target(const Simulation& sim, const S
   // safety * 2 / omega >= target once omega^2 <= omega_t^2. First the elements alone; then, as
   // long as the contact term (which falls as the nodes get heavier) keeps the whole below the
   // target, the elements get what it leaves, at least a quarter.
-  const double omega_t2 = std::pow(2 * step.safety_factor / target, 2);
+  // With stiffness damping b the critical step is (2 / omega)(sqrt(1 + xi^2) - xi), xi =
+  // b omega / 2 (estimate()), which equals h = target / safety where omega^2 = 1 / (h^2 / 4 +
+  // b h / 2): the budget falls with b, else the scaled step would stay below the target.
+  const double b = step.rayleigh_stiffness;
+  const double h = target / step.safety_factor;
+  const double omega_t2 =
+      b > 0 ? 1 / (0.25 * h * h + 0.5 * b * h) : std::pow(2 * step.safety_factor / target, 2);
   double budget = omega_t2;
   ExplicitStatus status = plain;
   for (int pass = 0; pass < 4; ++pass) {

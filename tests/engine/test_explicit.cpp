@@ -206,6 +206,33 @@ TEST(Explicit, MassScalingReachesTheTargetStepAndReportsTheAddedMass) {
   EXPECT_LT(worst, 1e-2 * rec.work.back());
 }
 
+TEST(Explicit, MassScalingWithStiffnessDampingReachesTheTargetStep) {
+  // Stiffness damping lowers the critical step by sqrt(1 + xi^2) - xi, xi = b omega / 2: the
+  // scaling must take it into account, else a step at the target is refused (with any b > 0).
+  Model m = slender_cantilever();
+  m.steps.push_back(explicit_step(0.2, 1.0));
+  const ExplicitStatus plain = Simulation(m).explicit_stability(m.steps.back());
+  const double target = 4 * plain.stable_dt;
+  m.steps.back().mass_scaling_dt = target;
+  for (const double xi_target : {1e-4, 0.1, 1.0}) {
+    // b such that xi = b omega_t / 2 at the target's undamped omega_t = 2 safety / target.
+    m.steps.back().rayleigh_stiffness = xi_target * target / m.steps.back().safety_factor;
+    const ExplicitStatus scaled = Simulation(m).explicit_stability(m.steps.back());
+    std::printf("stiffness damping b = %.3g s: mass scaling to %.4g s gives a stable step of "
+                "%.6g s, %.3g %% of the mass added\n",
+                m.steps.back().rayleigh_stiffness, target, scaled.stable_dt,
+                scaled.added_mass_percent);
+    EXPECT_GE(scaled.stable_dt, target * (1 - 1e-9)) << "xi " << xi_target;
+    EXPECT_LT(scaled.stable_dt, 1.01 * target)
+        << "more mass than the target needs, xi " << xi_target;
+  }
+  m.steps.back().dt_initial = m.steps.back().dt_max = target;
+  m.steps.back().end_time = 20 * target;
+  Simulation sim(m);
+  sim.run();
+  EXPECT_EQ(sim.explicit_status().increments, 20);
+}
+
 TEST(Explicit, ResultsAreReportedEveryNthIncrementAndAtTheEnd) {
   Model m = flying_beam();
   m.steps.push_back(explicit_step(1.0, 1.0));
