@@ -258,7 +258,7 @@ private:
   /// vectors, angular momenta and the Gauss-point histories), on every process: before output,
   /// checkpoints and energy balances, and at the step's end. Collective; nothing on one process.
   void share_state();
-  /// The kinetic energy of the state and spun_ (J), and over several processes the sums of the
+  /// The kinetic energy of the state (J), and over several processes the sums of the
   /// processes' increments of the energy accumulators since `before` (kick work, damping,
   /// prescribed and external work, each counted over a process's own nodes).
   double settle_energies(const std::array<double, 4>& before);
@@ -287,8 +287,8 @@ private:
   double supplied_start_ = 0, supplied_max_ = 0, prescribed_start_ = 0, energy_floor_ = 0;
   double kick_work_ = 0;
   std::vector<double> node_work_; ///< per node, of the half kick in progress
-  /// Per node, the change of the kinetic energy of its prescribed translations in the second
-  /// half kick (J): the work that accelerated them.
+  /// Per node, the change of the kinetic energy of its prescribed translations and rotations in
+  /// the second half kick (J): the work that accelerated them.
   std::vector<double> prescribed_kinetic_;
   /// m a of each prescribed translation in the last evaluation (N; zero elsewhere): the part of
   /// the reactions whose work is counted as prescribed_kinetic_.
@@ -296,8 +296,6 @@ private:
   double h_target_ = 0; ///< s, the step size in use
   long count_ = 0;      ///< increments of this step
   double kinetic_ = 0;  ///< J, kinetic energy after the last increment
-  /// J, kinetic energy of the rotary inertia that prescribed rotations turn (check_energy)
-  double spun_ = 0;
   // Over several processes: the nodes this process integrates [first_, last_), its own (every
   // node on one process), every process's range (empty on one process) and the elements whose
   // histories it commits (its own; all on one process).
@@ -668,35 +666,21 @@ void CentralDifference::share_state() {
 
 double CentralDifference::settle_energies(const std::array<double, 4>& before) {
   const State& st = sim_.state_;
-  if (shares_.empty()) {
-    spun_ = 0;
-    for (int i = 0; i < n_; ++i)
-      if (prescribed_r_[i]) {
-        const Eigen::Vector3d W = st.W_n.col(i);
-        spun_ += 0.5 * W.dot(sim_.rotary_inertia_.col(i).cwiseProduct(W));
-      }
+  if (shares_.empty())
     return sim_.kinetic_energy();
-  }
   // Each accumulator's increment over this process's nodes, the kinetic energies of its nodes.
-  double sums[6] = {kick_work_ - before[0],
-                    sim_.damping_work_ - before[1],
-                    sim_.prescribed_work_ - before[2],
-                    sim_.external_work_ - before[3],
-                    0,
-                    0};
+  double sums[5] = {kick_work_ - before[0], sim_.damping_work_ - before[1],
+                    sim_.prescribed_work_ - before[2], sim_.external_work_ - before[3], 0};
   for (int i = first_; i < last_; ++i) {
     const Eigen::Vector3d W = st.W_n.col(i);
-    const double rotary = 0.5 * W.dot(sim_.rotary_inertia_.col(i).cwiseProduct(W));
-    sums[4] += 0.5 * sim_.mass_(i) * st.v_n.col(i).squaredNorm() + rotary;
-    if (prescribed_r_[i])
-      sums[5] += rotary;
+    sums[4] += 0.5 * sim_.mass_(i) * st.v_n.col(i).squaredNorm() +
+               0.5 * W.dot(sim_.rotary_inertia_.col(i).cwiseProduct(W));
   }
-  distributed::sum(sums, 6);
+  distributed::sum(sums, 5);
   kick_work_ = before[0] + sums[0];
   sim_.damping_work_ = before[1] + sums[1];
   sim_.prescribed_work_ = before[2] + sums[2];
   sim_.external_work_ = before[3] + sums[3];
-  spun_ = sums[5];
   return sums[4];
 }
 
@@ -716,10 +700,8 @@ void CentralDifference::check_energy(double energy, const char* what) {
   // The energy a stable run holds stays within what was put in (its measure at whole steps
   // oscillates by up to (omega h / 2)^2 of the highest mode's share); an unstable one grows
   // geometrically.
-  // Prescribed rotations turn their nodes' rotary inertia without a reaction for it (see
-  // evaluate_forces): that kinetic energy counts as supplied.
-  const double supplied =
-      supplied_start_ + kick_work_ + sim_.prescribed_work_ - prescribed_start_ + spun_;
+  // (The kinetic energy that prescribed motions give their nodes is in the prescribed work.)
+  const double supplied = supplied_start_ + kick_work_ + sim_.prescribed_work_ - prescribed_start_;
   supplied_max_ = std::max(supplied_max_, supplied);
   if (!std::isfinite(energy))
     fail(fmt::format("the {} energy is not finite: the integration is unstable", what));
@@ -959,7 +941,14 @@ void CentralDifference::advance(double h, double t_new) {
           const Eigen::Matrix3d& Q = st.Q_n[i];
           const Eigen::Vector3d J = sim_.rotary_inertia_.col(i);
           if (prescribed_r_[i]) {
+            // The reactions leave the rotary inertia of a prescribed rotation out
+            // (evaluate_forces): the work that turned it is the change of its kinetic energy,
+            // counted with the prescribed translations'.
+            const Eigen::Vector3d W_old = st.W_n.col(i);
             st.W_n.col(i) = Q.transpose() * omega_half_.col(i);
+            const Eigen::Vector3d W = st.W_n.col(i);
+            prescribed_kinetic_[i] +=
+                0.5 * (W.dot(J.cwiseProduct(W)) - W_old.dot(J.cwiseProduct(W_old)));
             pi_.col(i) = Q * J.cwiseProduct(st.W_n.col(i));
             continue;
           }
