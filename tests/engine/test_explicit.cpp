@@ -237,38 +237,9 @@ TEST(Explicit, PrescribedRotationsOfHeavyRotaryInertiaKeepTheEnergyBalance) {
   // The reactions leave out the rotary inertia of a prescribed rotation: the work that turns it
   // is the change of its kinetic energy, counted in the prescribed work. Left out, the balance
   // of this run was off by 6 % at t = 0.2 s and the run stopped ("forces that neither store nor
-  // dissipate energy").
-  const Model m = read_deck_string(R"(
-[[sections]]
-name = "beam"
-EA = 1e4
-GA = 1e4
-EI = 500.0
-GJ = 500.0
-rhoA = 1.0
-rhoJ = [10.0, 10.0, 20.0]
-
-[[lines]]
-name = "a"
-from = [0.0, 0.0, 0.0]
-to = [6.0, 8.0, 0.0]
-elements = 10
-section = "beam"
-reference_vector = [0.0, 0.0, 1.0]
-
-[[prescribed]]
-node_set = "a.start"
-displacement = { x = [[0.0, 0.0]], y = [[0.0, 0.0]], z = [[0.0, 0.0]] }
-rotation = { x = [[0.0, 0.0], [5.0, 1.0]], y = [[0.0, 0.0]], z = [[0.0, 0.0], [5.0, 1.5]] }
-
-[[steps]]
-type = "explicit"
-end_time = 6.0
-dt = 2e-3
-output_every = 100
-rayleigh = { mass = 0.1, stiffness = 1e-3 }
-)",
-                                   "turned.toml");
+  // dissipate energy"). Two beams, their clamps turning about one and two axes.
+  const Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) /
+                            "tests/decks/explicit-turned-ends.toml");
   Simulation sim(m);
   EnergyRecorder rec;
   sim.run(&rec);

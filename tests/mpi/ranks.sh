@@ -129,44 +129,7 @@ mpi 2 run explicit-surface.toml -o explicit-surface-np2 -q > explicit-surface-np
 # Two beams, one per process, their ends turned (prescribed rotations of a heavy rotary inertia)
 # with mass and stiffness damping: the work and damping each process counts over its own nodes,
 # summed at every increment (measured 3e-15 of one process's).
-cat > explicit-turned.toml <<'DECK'
-[[sections]]
-name = "beam"
-EA = 1e4
-GA = 1e4
-EI = 500.0
-GJ = 500.0
-rhoA = 1.0
-rhoJ = [10.0, 10.0, 20.0]
-[[lines]]
-name = "a"
-from = [0.0, 0.0, 0.0]
-to = [6.0, 8.0, 0.0]
-elements = 10
-section = "beam"
-reference_vector = [0.0, 0.0, 1.0]
-[[lines]]
-name = "b"
-from = [0.0, 0.0, 5.0]
-to = [8.0, 6.0, 5.0]
-elements = 10
-section = "beam"
-reference_vector = [0.0, 0.0, 1.0]
-[[prescribed]]
-node_set = "a.start"
-displacement = { x = [[0.0, 0.0]], y = [[0.0, 0.0]], z = [[0.0, 0.0]] }
-rotation = { x = [[0.0, 0.0]], y = [[0.0, 0.0]], z = [[0.0, 0.0], [5.0, 1.5]] }
-[[prescribed]]
-node_set = "b.start"
-displacement = { x = [[0.0, 0.0]], y = [[0.0, 0.0]], z = [[0.0, 0.0]] }
-rotation = { x = [[0.0, 0.0], [5.0, 1.0]], y = [[0.0, 0.0]], z = [[0.0, 0.0]] }
-[[steps]]
-type = "explicit"
-end_time = 6.0
-dt = 2e-3
-output_every = 100
-rayleigh = { mass = 0.1, stiffness = 1e-3 }
-DECK
+cp "$repo/tests/decks/explicit-turned-ends.toml" explicit-turned.toml
 "$yarnsim" run explicit-turned.toml -o explicit-turned-ref -q > explicit-turned-ref.log 2>&1 ||
   { echo "FAIL explicit-turned: the one-process run failed"; cat explicit-turned-ref.log; fail=1; }
 for n in 2 3; do
