@@ -6,7 +6,8 @@
 # contact examples and a frictional run restarted on another number of processes within 1e-10 of
 # UMFPACK's; the explicit path: a one-yarn run bitwise on 2 processes, the paper's fabric on 2
 # and 3 processes within 1e-10, with friction stopped on 2 and restarted on 3, with surface
-# contact on 2, and two beams turned at their ends with damping on 2 and 3. Only rank 0
+# contact on 2, two beams turned at their ends with damping on 2 and 3, and an explicit step
+# handing over to a dynamic one with friction on 2. Only rank 0
 # speaks: one start line, one done line.
 # Usage: ranks.sh YARNSIM REPO WORKDIR
 set -u
@@ -130,6 +131,15 @@ mpi 2 run explicit-surface.toml -o explicit-surface-np2 -q > explicit-surface-np
 # with mass and stiffness damping: the work and damping each process counts over its own nodes,
 # summed at every increment (measured 3e-15 of one process's).
 cp "$repo/tests/decks/explicit-turned-ends.toml" explicit-turned.toml
+# And an explicit step with friction handing over to a dynamic one (measured 7e-14).
+cp "$repo/tests/decks/explicit-then-dynamic-friction.toml" explicit-then-dynamic.toml
+"$yarnsim" run explicit-then-dynamic.toml -o explicit-then-dynamic-ref -q --linear-solver lu \
+  > explicit-then-dynamic-ref.log 2>&1 ||
+  { echo "FAIL explicit-then-dynamic: the one-process run failed"; cat explicit-then-dynamic-ref.log; fail=1; }
+mpi 2 run explicit-then-dynamic.toml -o explicit-then-dynamic-np2 -q > explicit-then-dynamic-np2.log 2>&1 ||
+  { echo "FAIL explicit-then-dynamic over 2 processes failed"; cat explicit-then-dynamic-np2.log; fail=1; }
+"$python" "$compare" explicit-then-dynamic-ref explicit-then-dynamic-np2 1e-10 ||
+  { echo "FAIL explicit-then-dynamic-np2: differs from the one-process run"; fail=1; }
 "$yarnsim" run explicit-turned.toml -o explicit-turned-ref -q > explicit-turned-ref.log 2>&1 ||
   { echo "FAIL explicit-turned: the one-process run failed"; cat explicit-turned-ref.log; fail=1; }
 for n in 2 3; do
