@@ -1104,16 +1104,21 @@ void CentralDifference::run(SimulationObserver* observer) {
     check_energy(kinetic_, "kinetic");
 
     const bool last = time_ >= step_.end_time * (1 - 1e-12);
-    if (observer && (st.increment % output_every == 0 || last)) {
+    if (st.increment % output_every == 0 || last) {
+      // Over several processes the whole state, points and histories for output and
+      // checkpoints: collective, so at the output increments whether or not this process has
+      // an observer.
       share_state();
       if (sim_.contact_)
-        sim_.gather_contact(); // over several processes: the points and histories for output
-      IncrementReport report;
-      report.step = index_;
-      report.increment = st.increment;
-      report.time = time_;
-      report.dt = h;
-      observer->on_increment(sim_, report);
+        sim_.gather_contact();
+      if (observer) {
+        IncrementReport report;
+        report.step = index_;
+        report.increment = st.increment;
+        report.time = time_;
+        report.dt = h;
+        observer->on_increment(sim_, report);
+      }
     }
   }
   share_state(); // the state as one process holds it, for the steps after this one
