@@ -306,6 +306,8 @@ public:
   /// forces are conjugate to their elastic gaps, so that the energy balance it checks holds;
   /// implicit steps take them at the contact points (contact::FrictionForce).
   virtual void set_explicit_path(bool /*explicit_path*/) {}
+  /// Whether project() reads the nodes' triads (State::Q_n, alpha) besides their positions.
+  virtual bool reads_triads() const { return false; }
   /// A process's share of a run over several (partition.hpp): from the next update_candidates
   /// on (also after a restore), the work list holds only the pairs `owned` holds
   /// (pair_owned_by; none: every pair). The candidate search stays whole.

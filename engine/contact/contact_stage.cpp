@@ -76,6 +76,11 @@ std::vector<ContactCoupling> ContactStage::couplings() const {
   return out;
 }
 
+bool ContactStage::reads_triads() const {
+  return std::any_of(sets_.begin(), sets_.end(),
+                     [](const auto& set) { return set->reads_triads(); });
+}
+
 bool ContactStage::partitioned() const {
   return partition_.has_value();
 }

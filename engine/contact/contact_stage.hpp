@@ -31,6 +31,8 @@ public:
   void set_time(double t);
   /// ContactSet::set_explicit_path of every set: call before the first projection of a step.
   void set_explicit_path(bool explicit_path);
+  /// Whether some set's projections read the nodes' triads (ContactSet::reads_triads).
+  bool reads_triads() const;
   std::string project(const State& state, bool want_tangent, const ContactRates* rates = nullptr);
   /// Whether some definition damps (normal or tangential damping): its project() then wants
   /// ContactRates on dynamic steps.

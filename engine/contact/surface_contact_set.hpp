@@ -39,6 +39,8 @@ public:
                       const ContactRates* rates = nullptr) override;
   /// Whether a definition has tangential damping (it needs the rates of dynamic steps).
   bool damped() const { return damped_; }
+  /// The elements' sections turn with their nodes' triads (contact::SurfaceNode).
+  bool reads_triads() const override { return true; }
   void clear_dissipation() override { dissipated_ = 0; }
   int candidates_version() const override { return candidates_version_; }
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).

@@ -280,7 +280,8 @@ private:
   Eigen::Matrix3Xd pi_;                                ///< spatial angular momentum, committed
   Eigen::VectorXd residual_, damped_, velocity_;       ///< 6 n_nodes
   Eigen::Matrix<double, 6, Eigen::Dynamic> increment_; ///< DOF increments of the step
-  std::vector<char> bad_;                              ///< per node: 1 no convergence, 2 too fast
+  /// Per node: 1 no convergence, 2 too fast (doubles: shared with the positions, share_nodes).
+  std::vector<double> bad_;
   // Energy guard. The work of the loads is taken as the velocity-Verlet kicks do it, h/2 f .
   // (v_before + v_after) / 2 per half kick, which is what the kinetic energy at whole steps
   // receives (the trapezoidal external_work lags it by the half kick still to come).
@@ -302,7 +303,11 @@ private:
   int first_ = 0, last_ = 0;
   std::vector<NodePartition> shares_;
   std::vector<int> own_elements_;
-  std::vector<double> exchange_; ///< packed node values of share_nodes
+  std::vector<double> exchange_;      ///< packed node values of share_nodes
+  std::vector<int> counts_, offsets_; ///< per process, its block of exchange_ (doubles)
+  /// Whether every process holds the whole state: at the step's start, and after share_state()
+  /// until the next increment.
+  bool state_shared_ = true;
   /// Whether the processes' contact pairs read other processes' triads (the surface contact's
   /// sections), which are then shared at every increment; else only with share_state.
   bool triads_each_increment_ = false;
@@ -593,7 +598,7 @@ CentralDifference::CentralDifference(Simulation& sim, int step_index)
   force_ = moment_ = v_half_ = omega_half_ = pi_half_ = pi_ = Eigen::Matrix3Xd::Zero(3, n_);
   residual_ = damped_ = velocity_ = Eigen::VectorXd::Zero(6 * n_);
   increment_ = inertia_ = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, n_);
-  bad_.assign(n_, 0);
+  bad_.assign(n_, 0.0);
   node_work_.assign(n_, 0.0);
   prescribed_kinetic_.assign(n_, 0.0);
   last_ = n_;
@@ -601,7 +606,9 @@ CentralDifference::CentralDifference(Simulation& sim, int step_index)
     first_ = sim.partition_->first;
     last_ = sim.partition_->last;
     shares_ = partition_all(sim.model_, distributed::size());
-    triads_each_increment_ = sim.contact_ && sim.contact_->surface() != nullptr;
+    counts_.resize(shares_.size());
+    offsets_.resize(shares_.size());
+    triads_each_increment_ = sim.contact_ && sim.contact_->reads_triads();
   }
   for (int e = 0; e < static_cast<int>(sim.model_.elements.size()); ++e)
     if (!sim.partition_ || sim.partition_->owns(sim.model_.elements[e].nodes[0]))
@@ -628,20 +635,20 @@ void CentralDifference::share_nodes(std::initializer_list<std::pair<double*, int
   };
   for (int i = first_; i < last_; ++i)
     pack(i, true);
-  std::vector<int> counts, offsets;
-  for (const NodePartition& share : shares_) {
-    counts.push_back(width * (share.last - share.first));
-    offsets.push_back(width * share.first);
+  for (std::size_t r = 0; r < shares_.size(); ++r) {
+    counts_[r] = width * (shares_[r].last - shares_[r].first);
+    offsets_[r] = width * shares_[r].first;
   }
-  distributed::share_blocks(exchange_.data(), counts, offsets);
+  distributed::share_blocks(exchange_.data(), counts_, offsets_);
   for (int i = 0; i < n_; ++i)
     if (i < first_ || i >= last_)
       pack(i, false);
 }
 
 void CentralDifference::share_state() {
-  if (shares_.empty())
+  if (shares_.empty() || state_shared_)
     return;
+  state_shared_ = true;
   State& st = sim_.state_;
   share_nodes({{st.Q_n.data()->data(), 9},
                {st.v_n.data(), 3},
@@ -768,9 +775,7 @@ void CentralDifference::evaluate_forces(double t, double h) {
   if (b > 0) {
     // Over several processes, this process's nodes: their velocities alone are current.
     const int from = 6 * first_, count = 6 * (last_ - first_);
-    sim_.damping_work_ +=
-        h * (shares_.empty() ? damped_.dot(velocity_)
-                             : damped_.segment(from, count).dot(velocity_.segment(from, count)));
+    sim_.damping_work_ += h * damped_.segment(from, count).dot(velocity_.segment(from, count));
     residual_ += damped_;
   }
   loads_ = sim_.external_loads(t);
@@ -810,7 +815,8 @@ void CentralDifference::advance(double h, double t_new) {
   // Half kick and drift: velocities and angular momenta to the middle of the step, positions and
   // rotation increments to its end. Over several processes each integrates its own nodes and
   // shares their positions and rotation increments (every process's contact pairs need them).
-  std::fill(bad_.begin(), bad_.end(), 0);
+  state_shared_ = false;
+  std::fill(bad_.begin(), bad_.end(), 0.0);
   tbb::parallel_for(
       tbb::blocked_range<int>(first_, last_, 256), [&](const tbb::blocked_range<int>& r) {
         for (int i = r.begin(); i != r.end(); ++i) {
@@ -852,11 +858,9 @@ void CentralDifference::advance(double h, double t_new) {
       });
   collect_kick_work();
   if (!shares_.empty()) {
-    std::vector<double> bad(bad_.begin(), bad_.end());
     lap(tick, times.update);
-    share_nodes({{st.x.data(), 3}, {st.alpha.data(), 3}, {bad.data(), 1}});
+    share_nodes({{st.x.data(), 3}, {st.alpha.data(), 3}, {bad_.data(), 1}});
     lap(tick, times.sums);
-    std::copy(bad.begin(), bad.end(), bad_.begin());
   }
   for (int i = 0; i < n_; ++i)
     if (bad_[i])

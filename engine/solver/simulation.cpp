@@ -822,19 +822,19 @@ void Simulation::gather_contact() {
 }
 
 void Simulation::prune_couplings() {
-  std::vector<ContactCoupling> needed = contact_->couplings();
-  if (contact_->partitioned()) { // every process's pairs: the patterns stay the same
-    std::vector<ContactCoupling> mine = needed;
-    needed = distributed::gather(mine);
-    if (4 * assembler_->couplings().size() > 5 * needed.size() + 64) {
-      std::sort(mine.begin(), mine.end());
-      mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
-      own_couplings_ = std::move(mine);
-      own_couplings_changed_ = true;
-    }
+  std::vector<ContactCoupling> mine = contact_->couplings();
+  // Over several processes every process's pairs, so that the patterns stay the same.
+  const std::vector<ContactCoupling> needed =
+      contact_->partitioned() ? distributed::gather(mine) : mine;
+  if (4 * assembler_->couplings().size() <= 5 * needed.size() + 64)
+    return;
+  assembler_->set_couplings(needed);
+  if (contact_->partitioned()) { // the blocks this process now assembles (own_entries)
+    std::sort(mine.begin(), mine.end());
+    mine.erase(std::unique(mine.begin(), mine.end()), mine.end());
+    own_couplings_ = std::move(mine);
+    own_couplings_changed_ = true;
   }
-  if (4 * assembler_->couplings().size() > 5 * needed.size() + 64)
-    assembler_->set_couplings(needed);
 }
 
 double Simulation::scaled_norm(const Eigen::VectorXd& v) const {

@@ -69,7 +69,6 @@ public:
   virtual void on_notice(const class Simulation&, const std::string& /*what*/) {}
 };
 
-/// Wall time spent in each stage of the Newton iterations since the start of the run, s.
 /// Wall time of the explicit path's stages, s, over its increments (yarnsim run --timings).
 struct ExplicitStageTimes {
   long increments = 0;
@@ -81,6 +80,7 @@ struct ExplicitStageTimes {
   double stability = 0;      ///< the stable step's estimate and the energy checks
 };
 
+/// Wall time spent in each stage of the Newton iterations since the start of the run, s.
 struct StageTimes {
   /// The explicit steps' stages (the fields below are the Newton iterations').
   ExplicitStageTimes explicit_path;

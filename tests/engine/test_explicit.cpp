@@ -175,12 +175,20 @@ TEST(Explicit, AnUnstableStepStopsTheRunAndSaysWhy) {
   }
 }
 
-TEST(Explicit, MassScalingReachesTheTargetStepAndReportsTheAddedMass) {
+/// The slender cantilever with an explicit step scaled to 4 times its unscaled stable step,
+/// which `plain` receives.
+Model mass_scaled_cantilever(ExplicitStatus& plain) {
   Model m = slender_cantilever();
   m.steps.push_back(explicit_step(0.2, 1.0));
-  const ExplicitStatus plain = Simulation(m).explicit_stability(m.steps.back());
-  const double target = 4 * plain.stable_dt;
-  m.steps.back().mass_scaling_dt = target;
+  plain = Simulation(m).explicit_stability(m.steps.back());
+  m.steps.back().mass_scaling_dt = 4 * plain.stable_dt;
+  return m;
+}
+
+TEST(Explicit, MassScalingReachesTheTargetStepAndReportsTheAddedMass) {
+  ExplicitStatus plain;
+  Model m = mass_scaled_cantilever(plain);
+  const double target = m.steps.back().mass_scaling_dt;
   const ExplicitStatus scaled = Simulation(m).explicit_stability(m.steps.back());
   std::printf("mass scaling to %.4g s (4 x %.4g s): stable %.4g s, added %.4g kg (%.3g %% of the "
               "mass, %.3g %% of the rotary inertia)\n",
@@ -209,11 +217,9 @@ TEST(Explicit, MassScalingReachesTheTargetStepAndReportsTheAddedMass) {
 TEST(Explicit, MassScalingWithStiffnessDampingReachesTheTargetStep) {
   // Stiffness damping lowers the critical step by sqrt(1 + xi^2) - xi, xi = b omega / 2: the
   // scaling must take it into account, else a step at the target is refused (with any b > 0).
-  Model m = slender_cantilever();
-  m.steps.push_back(explicit_step(0.2, 1.0));
-  const ExplicitStatus plain = Simulation(m).explicit_stability(m.steps.back());
-  const double target = 4 * plain.stable_dt;
-  m.steps.back().mass_scaling_dt = target;
+  ExplicitStatus plain;
+  Model m = mass_scaled_cantilever(plain);
+  const double target = m.steps.back().mass_scaling_dt;
   for (const double xi_target : {1e-4, 0.1, 1.0}) {
     // b such that xi = b omega_t / 2 at the target's undamped omega_t = 2 safety / target.
     m.steps.back().rayleigh_stiffness = xi_target * target / m.steps.back().safety_factor;
