@@ -302,6 +302,10 @@ public:
   /// The time (s) of the configurations project() will see next: time-dependent settings
   /// (SplineContactDefinition::compaction) are taken there.
   virtual void set_time(double /*time*/) {}
+  /// A new attempt at an increment starts from the last converged state (after a failed one,
+  /// from scratch): what the last attempt's iterates left (the anchors of the points that
+  /// closed in it) is forgotten.
+  virtual void begin_attempt() {}
   /// Whether the configurations project() sees next belong to an explicit step: its friction
   /// forces are conjugate to their elastic gaps, so that the energy balance it checks holds;
   /// implicit steps take them at the contact points (contact::FrictionForce).

@@ -37,6 +37,11 @@ void ContactStage::set_time(double t) {
     set->set_time(t);
 }
 
+void ContactStage::begin_attempt() {
+  for (const auto& set : sets_)
+    set->begin_attempt();
+}
+
 void ContactStage::set_explicit_path(bool explicit_path) {
   for (const auto& set : sets_)
     set->set_explicit_path(explicit_path);

@@ -29,6 +29,8 @@ public:
   bool update_candidates(const State& state);
   /// ContactSet::set_time of every set: call before projecting the configuration of time t.
   void set_time(double t);
+  /// ContactSet::begin_attempt of every set: call before the first projection of an attempt.
+  void begin_attempt();
   /// ContactSet::set_explicit_path of every set: call before the first projection of a step.
   void set_explicit_path(bool explicit_path);
   /// Whether some set's projections read the nodes' triads (ContactSet::reads_triads).

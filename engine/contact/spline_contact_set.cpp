@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <iterator>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -382,6 +383,9 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
           }
         });
 
+    // Where points touched first at this iterate (their twist anchors set above), they are
+    // anchored for the attempt's next iterates (elastic slip).
+    anchor_first_touches();
     // Friction at the line contacts' Gauss points, on the histories of the last converged
     // increment.
     line_items_.clear();
@@ -546,6 +550,11 @@ void SplineContactSet::assign_friction_histories() {
   // so the history goes with it: the committed history of a neighbouring pair that no longer
   // owns an active point. Each history is handed to one point at most.
   std::vector<char> taken(committed_.size(), 0);
+  // A point that closed earlier in this attempt keeps its anchor while its pair stays active.
+  std::erase_if(attempt_anchors_, [this](const AttemptAnchor& a) {
+    const int w = work_index(a.key);
+    return w < 0 || !work_[w].result.active;
+  });
   for (std::size_t w = 0; w < work_.size(); ++w) {
     Work& item = work_[w];
     item.first_touch = false;
@@ -581,12 +590,33 @@ void SplineContactSet::assign_friction_histories() {
       item.twist_slip = h.twist_slip;
       taken[from] = 1;
     } else {
-      item.history = contact::first_touch(item.result);
+      const Key key{item.definition, item.pair.first, item.pair.second};
+      const auto anchor =
+          std::lower_bound(attempt_anchors_.begin(), attempt_anchors_.end(), key,
+                           [](const AttemptAnchor& a, const Key& k) { return a.key < k; });
+      const bool anchored = anchor != attempt_anchors_.end() && anchor->key == key;
+      item.history = anchored ? anchor->history : contact::first_touch(item.result);
+      item.first_touch = !anchored;
       item.slip = 0;
       item.twist_slip = 0;
-      item.first_touch = true;
     }
   }
+}
+
+void SplineContactSet::anchor_first_touches() {
+  // Work items are in key order, so the new anchors are too: one merge keeps the list sorted.
+  std::vector<AttemptAnchor> touched;
+  for (const Work& item : work_)
+    if (item.first_touch && definitions_[item.definition]->friction->elastic_slip() > 0)
+      touched.push_back({Key{item.definition, item.pair.first, item.pair.second}, item.history});
+  if (touched.empty())
+    return;
+  std::vector<AttemptAnchor> merged;
+  merged.reserve(attempt_anchors_.size() + touched.size());
+  std::merge(attempt_anchors_.begin(), attempt_anchors_.end(), touched.begin(), touched.end(),
+             std::back_inserter(merged),
+             [](const AttemptAnchor& a, const AttemptAnchor& b) { return a.key < b.key; });
+  attempt_anchors_ = std::move(merged);
 }
 
 void SplineContactSet::assign_line_histories() {
@@ -625,6 +655,8 @@ void SplineContactSet::assign_line_histories() {
 }
 
 void SplineContactSet::commit() {
+  // The committed histories take over from the attempt's anchors.
+  attempt_anchors_.clear();
   // Keep warm starts of the current candidates only; pairs that left the list start cold.
   next_committed_.clear();
   for (Work& item : work_) {

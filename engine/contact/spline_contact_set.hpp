@@ -44,6 +44,7 @@ public:
   /// Whether some definition damps.
   bool damped() const { return damped_; }
   void set_time(double time) override { time_ = time; }
+  void begin_attempt() override { attempt_anchors_.clear(); }
   void set_explicit_path(bool explicit_path) override {
     friction_force_ = explicit_path ? contact::FrictionForce::ConjugateToTheGap
                                     : contact::FrictionForce::AtContactPoints;
@@ -126,11 +127,23 @@ private:
     contact::FrictionHistory history{};
     double slip = 0;
     double twist_slip = 0; ///< rad, accumulated before this increment (torsional friction)
-    /// An active point contact with friction and no history: it closed in this increment. It
-    /// carries no friction until the increment converges, which anchors it where it closed (a
-    /// history that followed the iterate would give zero force with a tangent that is not).
+    /// An active point contact with friction and no history: it closed at this iterate. It
+    /// carries no friction here. With an elastic slip it is anchored where it touched for the
+    /// rest of the attempt (attempt_anchors_); with a constant penalty it carries none until the
+    /// increment converges, which anchors it where it is then. (A history that followed the
+    /// iterate would give zero force with a tangent that is not.)
     bool first_touch = false;
   };
+  /// Where a point contact of a definition with an elastic slip first touched in the current
+  /// attempt (its pair had no history): the next iterates hold it as their history, stuck, as
+  /// a committed one, so the point resists sliding from the iterate it closed at instead of
+  /// sliding freely until the increment converges. Dropped where the pair opens again (a new
+  /// touch anchors anew), by begin_attempt and by commit (the committed histories take over).
+  struct AttemptAnchor {
+    Key key;
+    contact::FrictionHistory history;
+  };
+  std::vector<AttemptAnchor> attempt_anchors_; ///< sorted by key
 
   std::array<int, 6> nodes_of(const Definition& d, const broadphase::CandidatePair& p) const;
   /// The pair's control points at positions x (3 x n_nodes, m): A's and B's three, as columns.
@@ -144,6 +157,9 @@ private:
   /// Gives each active frictional point contact the history it holds fixed (serial: a history
   /// handed over from a neighbouring pair goes to one point only).
   void assign_friction_histories();
+  /// Adds the points that touched first at the last projection, of definitions with an elastic
+  /// slip, to attempt_anchors_ (after the friction pass has set their twist anchors).
+  void anchor_first_touches();
   /// Index of the work item / committed entry with this key, or -1.
   int work_index(const Key& key) const;
   int committed_index(const Key& key) const;

@@ -858,8 +858,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   Eigen::VectorXd residual(6 * n);
   mixed_.active = false; // the first evaluation's tangent is the displacement-based one
   solver_->start_attempt();
-  if (contact_)
+  if (contact_) {
     contact_->set_time(t_new);
+    contact_->begin_attempt();
+  }
   // Where the increment moves prescribed DOFs, the first correction is solved with the tangent
   // of the converged state (at t_new's Newmark coefficients) where the predictor has the same
   // active contact pairs, not with the tangent at the predictor: moving the prescribed nodes

@@ -7,6 +7,7 @@
 // segment boundaries (history handed over between segment pairs); Newton's rate in slip.
 #include "beam_models.hpp"
 #include "drag_recorder.hpp"
+#include "engine/contact/contact_stage.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/solver/simulation.hpp"
 #include "notices.hpp"
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <gtest/gtest.h>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -201,6 +203,63 @@ TEST(Friction, HysteresisLoopAreaDissipationAndEnergyBalanceAreExact) {
 TEST(Friction, WithAnElasticSlipTheLoopIsThatOfItsRadius) {
   // The stick stiffness mu N / gamma: a cone of radius gamma = 0.15 mm (on the increments).
   check_hysteresis(0.5, 0.15e-3, 0.15e-3);
+}
+
+TEST(Friction, WithAnElasticSlipAPointHoldsWhereItTouchedForTheRestOfTheAttempt) {
+  // The slider's crossing seen through the contact stage as Newton's iterates would show it: open
+  // (the slider 10 um above the rail), touching (10 um into it), then slid 2 um along the rail.
+  // With an elastic slip gamma = 10 um the touch anchors the point for the rest of the attempt:
+  // slid, it sticks with the stick spring mu f_n / gamma, so its friction force is mu f_n
+  // (2 um / gamma) (formulation.md, "Friction", "In the stage"). The touch itself carries none,
+  // a new attempt (begin_attempt) or the pair opening again forgets the anchor, and with a
+  // constant penalty the point carries none until the increment converges (as before).
+  constexpr double kMu = 0.3, kGamma = 1e-5, kSlid = 2e-6, kDepth = 1e-5;
+  const TimeTable hold{{0.0, 2.0}, {0.0, 0.0}};
+  for (const double elastic_slip : {kGamma, 0.0}) {
+    SCOPED_TRACE(elastic_slip);
+    const Drag d = drag_model(kMu, kMu, hold, 2.0, 0.5, elastic_slip);
+    const Simulation sim(d.model);
+    State open = sim.state(), touching = open, slid = open;
+    for (const int i : d.slider) {
+      open.x(2, i) += kDepth;
+      touching.x(2, i) -= kDepth;
+      slid.x(2, i) -= kDepth;
+      slid.x(0, i) += kSlid;
+    }
+    const std::unique_ptr<ContactStage> stage = ContactStage::of(d.model);
+    // One iterate: the pair's projection and friction at `state`.
+    const auto iterate = [&stage](const State& state) {
+      stage->update_candidates(state);
+      EXPECT_EQ(stage->project(state, false), "");
+      return stage->summary();
+    };
+    stage->begin_attempt();
+    ASSERT_EQ(iterate(open).active, 0);
+    const ContactSummary touch = iterate(touching);
+    ASSERT_EQ(touch.active, 1);
+    EXPECT_EQ(touch.stick + touch.slip, 0) << "the touch carries no friction";
+    EXPECT_EQ(touch.tangential_force, 0.0);
+    const ContactSummary after = iterate(slid);
+    ASSERT_EQ(after.active, 1);
+    if (elastic_slip > 0) {
+      EXPECT_EQ(after.stick, 1);
+      const double expected = kMu * after.total_force * kSlid / kGamma;
+      EXPECT_NEAR(after.tangential_force, expected, 1e-6 * expected);
+    } else {
+      EXPECT_EQ(after.stick + after.slip, 0) << "a constant penalty anchors at the commit";
+      EXPECT_EQ(after.tangential_force, 0.0);
+    }
+    // Opened again: the next touch (slid) anchors anew, and sliding back from it sticks with
+    // the same force the other way.
+    ASSERT_EQ(iterate(open).active, 0);
+    EXPECT_EQ(iterate(slid).tangential_force, 0.0);
+    if (elastic_slip > 0)
+      EXPECT_NEAR(iterate(touching).tangential_force, after.tangential_force,
+                  1e-6 * after.tangential_force);
+    // A new attempt forgets the anchor of the last one.
+    stage->begin_attempt();
+    EXPECT_EQ(iterate(touching).tangential_force, 0.0);
+  }
 }
 
 TEST(Friction, NewtonConvergesQuadraticallyInSlip) {
