@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <fmt/format.h>
-#include <iterator>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -526,11 +526,9 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
 }
 
 int SplineContactSet::work_index(const Key& key) const {
-  const auto it =
-      std::lower_bound(work_.begin(), work_.end(), key, [](const Work& w, const Key& k) {
-        return Key{w.definition, w.pair.first, w.pair.second} < k;
-      });
-  if (it == work_.end() || Key{it->definition, it->pair.first, it->pair.second} != key)
+  const auto it = std::lower_bound(work_.begin(), work_.end(), key,
+                                   [](const Work& w, const Key& k) { return w.key() < k; });
+  if (it == work_.end() || it->key() != key)
     return -1;
   return static_cast<int>(it - work_.begin());
 }
@@ -590,7 +588,7 @@ void SplineContactSet::assign_friction_histories() {
       item.twist_slip = h.twist_slip;
       taken[from] = 1;
     } else {
-      const Key key{item.definition, item.pair.first, item.pair.second};
+      const Key key = item.key();
       const auto anchor =
           std::lower_bound(attempt_anchors_.begin(), attempt_anchors_.end(), key,
                            [](const AttemptAnchor& a, const Key& k) { return a.key < k; });
@@ -604,19 +602,15 @@ void SplineContactSet::assign_friction_histories() {
 }
 
 void SplineContactSet::anchor_first_touches() {
-  // Work items are in key order, so the new anchors are too: one merge keeps the list sorted.
-  std::vector<AttemptAnchor> touched;
+  // Work items are in key order, so the new anchors are appended sorted: one in-place merge
+  // keeps the whole list sorted.
+  const auto held = static_cast<std::ptrdiff_t>(attempt_anchors_.size());
   for (const Work& item : work_)
     if (item.first_touch && definitions_[item.definition]->friction->elastic_slip() > 0)
-      touched.push_back({Key{item.definition, item.pair.first, item.pair.second}, item.history});
-  if (touched.empty())
-    return;
-  std::vector<AttemptAnchor> merged;
-  merged.reserve(attempt_anchors_.size() + touched.size());
-  std::merge(attempt_anchors_.begin(), attempt_anchors_.end(), touched.begin(), touched.end(),
-             std::back_inserter(merged),
-             [](const AttemptAnchor& a, const AttemptAnchor& b) { return a.key < b.key; });
-  attempt_anchors_ = std::move(merged);
+      attempt_anchors_.push_back({item.key(), item.history});
+  std::inplace_merge(attempt_anchors_.begin(), attempt_anchors_.begin() + held,
+                     attempt_anchors_.end(),
+                     [](const AttemptAnchor& a, const AttemptAnchor& b) { return a.key < b.key; });
 }
 
 void SplineContactSet::assign_line_histories() {
@@ -685,8 +679,8 @@ void SplineContactSet::commit() {
         continue;
     }
     item.warm = static_cast<int>(next_committed_.size());
-    Snapshot::Warm& warm = next_committed_.emplace_back(Snapshot::Warm{
-        Key{item.definition, item.pair.first, item.pair.second}, r.xi_A, r.xi_B, r.active});
+    Snapshot::Warm& warm =
+        next_committed_.emplace_back(Snapshot::Warm{item.key(), r.xi_A, r.xi_B, r.active});
     const std::size_t w = static_cast<std::size_t>(&item - work_.data());
     if (any_friction_ && friction_[w].active) {
       const contact::SplineFrictionResult& f = friction_[w];
@@ -804,9 +798,9 @@ SplineContactSet::Snapshot SplineContactSet::snapshot() const {
   out.pairs.reserve(work_.size());
   for (const Work& w : work_) {
     const contact::SplineContactResult& r = w.result;
-    out.pairs.push_back({Key{w.definition, w.pair.first, w.pair.second}, r.status, r.degenerate,
-                         r.active, r.iterations, r.xi_A, r.xi_B, r.distance, r.gap, r.penetration,
-                         r.penetration_rate, r.force, r.potential, r.point_A, r.point_B, r.normal});
+    out.pairs.push_back({w.key(), r.status, r.degenerate, r.active, r.iterations, r.xi_A, r.xi_B,
+                         r.distance, r.gap, r.penetration, r.penetration_rate, r.force, r.potential,
+                         r.point_A, r.point_B, r.normal});
   }
   out.candidates_version = candidates_version_;
   out.dissipated = dissipated_;
@@ -838,7 +832,7 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
                     work.size(), snapshot.pairs.size()));
   for (std::size_t w = 0; w < work.size(); ++w) {
     const Snapshot::Pair& p = snapshot.pairs[w];
-    if (p.key != Key{work[w].definition, work[w].pair.first, work[w].pair.second})
+    if (p.key != work[w].key())
       throw std::invalid_argument(fmt::format(
           "contact restart: candidate {} of the saved search differs from the snapshot's", w));
     contact::SplineContactResult& r = work[w].result;

@@ -133,6 +133,7 @@ private:
     /// increment converges, which anchors it where it is then. (A history that followed the
     /// iterate would give zero force with a tangent that is not.)
     bool first_touch = false;
+    Key key() const { return {definition, pair.first, pair.second}; }
   };
   /// Where a point contact of a definition with an elastic slip first touched in the current
   /// attempt (its pair had no history): the next iterates hold it as their history, stuck, as
