@@ -563,6 +563,7 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
       write_columns<3>(g, "secant_motion", c.secant_motion);
       h5::write_double_attribute(g, "secant_dt", c.secant_dt);
       h5::write_int_attribute(g, "secant_step", c.secant_step);
+      h5::write_double_attribute(g, "secant_reach", c.secant_reach);
     }
     state.close();
 
@@ -666,6 +667,9 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
     c.secant_motion = read_columns<3>(g, "secant_motion", n);
     c.secant_dt = h5::read_double_attribute(g, "secant_dt");
     c.secant_step = h5::read_int_attribute(g, "secant_step");
+    // Written since frictional tension tests choose the secant (absent: not held).
+    if (h5::attribute_exists(g, "secant_reach"))
+      c.secant_reach = h5::read_double_attribute(g, "secant_reach");
   }
   s.x = s.x_n;
   s.alpha = Eigen::Matrix3Xd::Zero(3, n);

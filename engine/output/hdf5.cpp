@@ -202,6 +202,10 @@ bool exists(hid_t parent, const std::string& name) {
   return checked(H5Lexists(parent, name.c_str(), H5P_DEFAULT), "H5Lexists", parent, name) > 0;
 }
 
+bool attribute_exists(hid_t object, const std::string& name) {
+  return checked(H5Aexists(object, name.c_str()), "H5Aexists", object, name) > 0;
+}
+
 void remove(hid_t parent, const std::string& name) {
   checked(H5Ldelete(parent, name.c_str(), H5P_DEFAULT), "H5Ldelete", parent, name);
 }

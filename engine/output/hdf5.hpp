@@ -66,6 +66,8 @@ Handle create_group(hid_t parent, const std::string& name, bool attribute_order 
 Handle open_group(hid_t parent, const std::string& name);
 /// Whether parent has a link called name (one path component).
 bool exists(hid_t parent, const std::string& name);
+/// Whether object has an attribute called name.
+bool attribute_exists(hid_t object, const std::string& name);
 /// Removes the link name under parent.
 void remove(hid_t parent, const std::string& name);
 /// Names of the links directly under a group, in name order.

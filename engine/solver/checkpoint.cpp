@@ -37,6 +37,7 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.secant_motion = secant_motion_;
   c.secant_dt = secant_dt_;
   c.secant_step = secant_step_;
+  c.secant_reach = secant_reach_;
   c.explicit_status = explicit_status_;
   if (explicit_)
     c.explicit_progress = explicit_progress();
@@ -108,9 +109,13 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
                                             "columns over {} s, expected {} (the model's nodes) "
                                             "over a time > 0",
                                             from.secant_motion.cols(), from.secant_dt, n));
+  if (!(from.secant_reach > 0))
+    throw std::invalid_argument(fmt::format(
+        "checkpoint: the secant predictor's reach is {}, expected > 0", from.secant_reach));
   secant_motion_ = from.secant_motion;
   secant_dt_ = from.secant_dt;
   secant_step_ = from.secant_step;
+  secant_reach_ = from.secant_reach;
   explicit_status_ = from.explicit_status;
   if (from.explicit_progress)
     resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);

@@ -13,6 +13,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -54,6 +55,9 @@ struct SimulationCheckpoint {
   Eigen::Matrix3Xd secant_motion;
   double secant_dt = 0;
   int secant_step = -1;
+  /// A frictional tension test's chosen secant is held to this fraction of the motion
+  /// (Simulation::secant_reach_); +infinity: not held.
+  double secant_reach = std::numeric_limits<double>::infinity();
   ExplicitStatus explicit_status;
   std::optional<ExplicitProgress> explicit_progress; ///< when stopped inside an explicit step
   std::optional<SplineContactSet::Snapshot> contact; ///< when the model has spline contact

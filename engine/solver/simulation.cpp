@@ -610,23 +610,56 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
   return out;
 }
 
+bool Simulation::frictional_tension_test() const {
+  return options_.kinematic_predictor && model_.biaxial && has_friction(model_);
+}
+
+void Simulation::choose_predictor(const SolutionStep& step, const NewmarkCoefficients& nm,
+                                  double t_new, double dt, Eigen::VectorXd& residual,
+                                  IncrementReport& report) {
+  secant_chosen_ = false;
+  report.secant_residual = report.ends_residual = std::numeric_limits<double>::quiet_NaN();
+  if (!frictional_tension_test() || step.secant_predictor || secant_step_ != step_)
+    return;
+  // A frictional tension test: the last increment's motion, held short of closing crossings
+  // (secant_reach_), where it leaves a smaller residual than the ends alone; the ends alone
+  // otherwise (docs/performance.md, "The predictor chosen by its residual"). Two evaluations
+  // without the tangent; the points they anchor are dropped with them (begin_attempt).
+  secant_chosen_ = true;
+  predict(t_new, dt);
+  const Evaluation secant = evaluate(step, nm, t_new, false, residual);
+  secant_chosen_ = false;
+  predict(t_new, dt);
+  const Evaluation ends = evaluate(step, nm, t_new, false, residual);
+  secant_chosen_ = secant.veto.empty() && (!ends.veto.empty() || secant.relative < ends.relative);
+  if (secant.veto.empty())
+    report.secant_residual = secant.relative;
+  if (ends.veto.empty())
+    report.ends_residual = ends.relative;
+  if (contact_)
+    contact_->begin_attempt();
+}
+
 void Simulation::predict(double t_new, double dt) {
   // The converged state, then the prescribed values at t_new. (Carrying the last increment's
   // motion on helps some decks and costs others: docs/performance.md, "The secant predictor";
-  // the steps that ask for it take it.)
+  // the steps that ask for it take it, and a frictional tension test where choose_predictor
+  // chose it.)
   state_.x = state_.x_n;
   state_.alpha.setZero();
   // The secant predictor: the free translations move on by the last converged increment's
-  // motion of this step, scaled to this increment's size (its first increment has none).
+  // motion of this step, scaled to this increment's size (its first increment has none); the
+  // chosen one held short of closing crossings (secant_reach_).
   const SolutionStep& step = model_.steps[static_cast<std::size_t>(step_)];
-  const bool carry = step.secant_predictor && secant_step_ == step_;
+  const bool carry = (step.secant_predictor || secant_chosen_) && secant_step_ == step_;
   if (carry) {
     const std::vector<int>& eq = assembler_->equations();
     const double ratio = dt / secant_dt_;
+    const double scale = step.secant_predictor ? ratio : std::min(ratio, secant_reach_);
     for (int i = 0; i < state_.n_nodes(); ++i)
       for (int c = 0; c < 3; ++c)
         if (eq[6 * i + c] >= 0)
-          state_.x(c, i) += ratio * secant_motion_(c, i);
+          state_.x(c, i) += scale * secant_motion_(c, i);
   }
   if (!options_.kinematic_predictor || carry) {
     apply_prescribed(t_new);
@@ -873,6 +906,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   // predictor, to first order K_fp du_p). Where the predictor closes or opens contacts (pins
   // pushed into a slack yarn) that tangent lacks them and the predictor's is kept. It costs one
   // evaluation (two where the active sets differ) and no factorisation.
+  choose_predictor(step, nm, t_new, dt, residual, report);
   predict(t_new, dt);
   bool first_from_converged = options_.line_search &&
                               options_.first_correction_from_converged_state &&
@@ -1183,10 +1217,18 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
   // External work by the trapezoidal rule, with the loads before the nodes are updated.
   const Eigen::Matrix<double, 6, Eigen::Dynamic> load = external_loads(t_new);
   const std::vector<BeamReference>& refs = assembler_->references();
-  if (step.secant_predictor) {
+  if (step.secant_predictor || frictional_tension_test()) {
     secant_motion_ = state_.x - state_.x_n;
     secant_dt_ = dt;
     secant_step_ = step_;
+    // The fraction of this motion at which the first open pair of the converged state (the
+    // contact's last evaluation) would close past the closing allowance, to first order.
+    secant_reach_ = std::numeric_limits<double>::infinity();
+    if (contact_ && !step.secant_predictor) {
+      secant_reach_ = contact_->closing_limit(secant_motion_, nullptr, options_.closing_allowance);
+      if (contact_->partitioned())
+        secant_reach_ = distributed::smallest(secant_reach_);
+    }
   }
   tbb::parallel_for(std::size_t{0}, state_.gauss.size(), [&](std::size_t e) {
     state_.gauss[e] = beam_committed_history(refs[e], state_.gauss[e],

@@ -55,6 +55,12 @@ struct IncrementReport {
   /// Accepted with a residual within its round-off floor but not within the tolerance asked.
   bool at_floor = false;
   double floor_relative = 0; ///< the floor relative to the residual's reference
+  /// A frictional tension test's predictors (Simulation::choose_predictor) in the converged
+  /// attempt: the relative residual at the last increment's motion (held short of closing
+  /// crossings) and at the ends' alone; the smaller is the predictor. NaN where none was chosen
+  /// (another model, a step's first increment).
+  double secant_residual = std::numeric_limits<double>::quiet_NaN();
+  double ends_residual = std::numeric_limits<double>::quiet_NaN();
 };
 
 class SimulationObserver {
@@ -284,6 +290,15 @@ private:
   /// picture frame's map or a frictionless tension test's stretch of its pulled yarns where the
   /// model has one (SimulationOptions::kinematic_predictor), then the prescribed values at t_new.
   void predict(double t_new, double dt);
+  /// A frictional tension test (SimulationOptions::kinematic_predictor, a biaxial or uniaxial
+  /// test, friction): its predictor is chosen per attempt by choose_predictor.
+  bool frictional_tension_test() const;
+  /// Sets secant_chosen_ for the attempt to t_new: in a frictional tension test whose step has
+  /// a last increment, whether the secant predictor (held to secant_reach_) leaves a smaller
+  /// relative residual than the ends' alone; false otherwise. Evaluates both (no tangent).
+  /// The two residuals go to the report (IncrementReport::secant_residual, ends_residual).
+  void choose_predictor(const SolutionStep& step, const NewmarkCoefficients& nm, double t_new,
+                        double dt, Eigen::VectorXd& residual, IncrementReport& report);
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
   /// A force or moment v of the load at node, given along load.axes, as global components in
@@ -325,11 +340,17 @@ private:
   /// The closing limit's buffers (attempt), kept for their capacity: the correction's nodal
   /// translations and the predictor's motion from the converged state (3 x n_nodes, m).
   Eigen::Matrix3Xd correction_motion_, predictor_motion_;
-  /// The secant predictor's (SolutionStep::secant_predictor): the last converged increment's
-  /// motion of every node (3 x n, m), its size (s) and its step's index (-1: none yet).
+  /// The secant predictor's (SolutionStep::secant_predictor, or chosen: choose_predictor): the
+  /// last converged increment's motion of every node (3 x n, m), its size (s) and its step's
+  /// index (-1: none yet).
   Eigen::Matrix3Xd secant_motion_;
   double secant_dt_ = 0;
   int secant_step_ = -1;
+  /// The chosen secant's reach: the fraction of secant_motion_ at which the first contact pair
+  /// open in the converged state would penetrate by the closing allowance (closing_limit at the
+  /// commit; +infinity where none closes). The predictor moves by min(dt / secant_dt_, it).
+  double secant_reach_ = std::numeric_limits<double>::infinity();
+  bool secant_chosen_ = false; ///< this attempt's predictor carries the secant (choose_predictor)
   /// commit()'s per-node energy terms (3 x n_nodes, J), kept for their capacity.
   Eigen::Matrix3Xd commit_terms_;
   Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1

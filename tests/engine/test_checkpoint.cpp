@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -290,6 +291,58 @@ TEST_F(Checkpoint, BiasExtensionWithTheSecantPredictorGoesOnBitForBit) {
     Recorder restarted;
     Simulation(m, {}, stored.simulation).run(&restarted);
     expect_same_continuation(straight, k, restarted);
+  }
+}
+
+TEST_F(Checkpoint, FrictionalTensionTestWithTheChosenPredictorGoesOnBitForBit) {
+  // examples/biaxial-k1-friction.toml made 4 x 4 with an elastic slip, pulled to 0.9 %: from a
+  // step's second increment on its predictor is the ends' or the last increment's motion held to
+  // its reach, whichever leaves the smaller residual (Simulation::choose_predictor). The motion
+  // and the reach are in the checkpoint. Restarted through the file where the reach holds the
+  // secant back (in the toe, where crossings close: the secant's residual depends on the reach)
+  // and from an increment whose next takes the secant.
+  struct Choices : Recorder {
+    std::vector<double> secant_residual, ends_residual;
+    void on_increment(const Simulation& s, const IncrementReport& r) override {
+      Recorder::on_increment(s, r);
+      secant_residual.push_back(r.secant_residual);
+      ends_residual.push_back(r.ends_residual);
+    }
+  };
+  const Model m = example("biaxial-k1-friction.toml", {{"n_warp", "4"},
+                                                       {"n_weft", "4"},
+                                                       {"length_warp", "31.81815e-3"},
+                                                       {"length_weft", "31.81815e-3"},
+                                                       {"friction", "0.2\nelastic_slip = 5e-6"},
+                                                       {"max_strain", "0.009"},
+                                                       {"loading_time", "0.6"}});
+  ASSERT_EQ(m.spline_contacts[0].friction.elastic_slip, 5e-6);
+  Choices straight;
+  Simulation(m).run(&straight);
+  const std::size_t n = straight.increments.size();
+  std::size_t held = n, to_secant = n;
+  for (std::size_t k = 0; k + 1 < n; ++k) {
+    const double ratio = straight.increments[k + 1].dt / straight.increments[k].dt;
+    if (held == n && straight.checkpoints[k].secant_reach < ratio)
+      held = k;
+    if (to_secant == n && straight.secant_residual[k + 1] < straight.ends_residual[k + 1])
+      to_secant = k;
+  }
+  ASSERT_LT(held, n) << "the reach never held the secant back";
+  ASSERT_LT(to_secant, n) << "the secant was never the predictor";
+  for (const std::size_t k : {held, to_secant}) {
+    SCOPED_TRACE("from increment " + std::to_string(k + 1));
+    output::write_checkpoint(dir, straight.checkpoints[k],
+                             {static_cast<int>(k), {{"curves.csv", 7}}, "biaxial"});
+    const output::StoredCheckpoint stored = output::read_checkpoint(dir);
+    EXPECT_EQ(stored.simulation.secant_reach, straight.checkpoints[k].secant_reach);
+    EXPECT_TRUE(same_bits(stored.simulation.secant_motion, straight.checkpoints[k].secant_motion));
+    Choices restarted;
+    Simulation(m, {}, stored.simulation).run(&restarted);
+    expect_same_continuation(straight, k, restarted);
+    ASSERT_FALSE(restarted.secant_residual.empty());
+    EXPECT_EQ(restarted.secant_residual[0], straight.secant_residual[k + 1]);
+    EXPECT_EQ(restarted.ends_residual[0], straight.ends_residual[k + 1]);
   }
 }
 
