@@ -409,8 +409,9 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
       run.stop_requested = options.stop_requested;
       fmt::print(stderr, "case {} ({}){}, deck {}\n", c.name, c.label,
                  by_path ? fmt::format(" on the {} path", taken) : std::string(), c.deck.string());
+      // Kept outside the try: a stopped run's entry carries it too.
+      ExplicitStatus scaling;
       try {
-        ExplicitStatus scaling;
         if (is_explicit)
           scaling = Simulation(model).explicit_stability(model.steps.back());
         RunSummary s = run_model(model, run);
@@ -434,7 +435,9 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
           const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
           if (test == StudyTest::Biaxial) {
             const double k = model.biaxial->strain_ratio;
-            done.push_back({&c, taken, folder, label, k, RunSummary{}, std::move(model), {}, what});
+            Done stopped{&c,      taken, folder, label, k, RunSummary{}, std::move(model),
+                         scaling, what};
+            done.push_back(std::move(stopped));
           } else {
             others.push_back({c.name, c.label, taken, folder, label, test, std::move(model),
                               RunSummary{}, what});
