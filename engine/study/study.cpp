@@ -435,9 +435,8 @@ StudyOutcome run_study(const Study& study, const StudyOptions& options) {
           const std::string label = by_path ? fmt::format("{}, {}", c.label, taken) : c.label;
           if (test == StudyTest::Biaxial) {
             const double k = model.biaxial->strain_ratio;
-            Done stopped{&c,      taken, folder, label, k, RunSummary{}, std::move(model),
-                         scaling, what};
-            done.push_back(std::move(stopped));
+            Done entry{&c, taken, folder, label, k, RunSummary{}, std::move(model), scaling, what};
+            done.push_back(std::move(entry));
           } else {
             others.push_back({c.name, c.label, taken, folder, label, test, std::move(model),
                               RunSummary{}, what});
