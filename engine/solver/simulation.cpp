@@ -610,6 +610,11 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
   return out;
 }
 
+double Simulation::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset) const {
+  const double limit = contact_->closing_limit(du, offset, options_.closing_allowance);
+  return contact_->partitioned() ? distributed::smallest(limit) : limit;
+}
+
 bool Simulation::frictional_tension_test() const {
   return options_.kinematic_predictor && model_.biaxial && has_friction(model_);
 }
@@ -655,7 +660,8 @@ void Simulation::predict(double t_new, double dt) {
   if (carry) {
     const std::vector<int>& eq = assembler_->equations();
     const double ratio = dt / secant_dt_;
-    const double scale = step.secant_predictor ? ratio : std::min(ratio, secant_reach_);
+    // A step's own secant is not held (its reach is +infinity: commit).
+    const double scale = std::min(ratio, secant_reach_);
     for (int i = 0; i < state_.n_nodes(); ++i)
       for (int c = 0; c < 3; ++c)
         if (eq[6 * i + c] >= 0)
@@ -1188,12 +1194,8 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       });
       if (from_converged)
         predictor_motion_ = state_.x - state_.x_n;
-      double limit =
-          contact_->closing_limit(correction_motion_, from_converged ? &predictor_motion_ : nullptr,
-                                  options_.closing_allowance);
-      if (contact_->partitioned())
-        limit = distributed::smallest(limit);
-      lambda = std::min(lambda, limit);
+      lambda = std::min(
+          lambda, closing_limit(correction_motion_, from_converged ? &predictor_motion_ : nullptr));
     }
     if (options_.mixed_integration_point)
       start_mixed_stresses(delta, from_converged);
@@ -1224,11 +1226,8 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
     // The fraction of this motion at which the first open pair of the converged state (the
     // contact's last evaluation) would close past the closing allowance, to first order.
     secant_reach_ = std::numeric_limits<double>::infinity();
-    if (contact_ && !step.secant_predictor) {
-      secant_reach_ = contact_->closing_limit(secant_motion_, nullptr, options_.closing_allowance);
-      if (contact_->partitioned())
-        secant_reach_ = distributed::smallest(secant_reach_);
-    }
+    if (contact_ && !step.secant_predictor)
+      secant_reach_ = closing_limit(secant_motion_, nullptr);
   }
   tbb::parallel_for(std::size_t{0}, state_.gauss.size(), [&](std::size_t e) {
     state_.gauss[e] = beam_committed_history(refs[e], state_.gauss[e],

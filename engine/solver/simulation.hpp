@@ -293,6 +293,10 @@ private:
   /// A frictional tension test (SimulationOptions::kinematic_predictor, a biaxial or uniaxial
   /// test, friction): its predictor is chosen per attempt by choose_predictor.
   bool frictional_tension_test() const;
+  /// The closing limit (ContactStage::closing_limit at SimulationOptions::closing_allowance) of
+  /// the nodal translations du (3 x n_nodes, m) from the contact's last evaluation moved by
+  /// offset, over every process (the smallest); needs contact.
+  double closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset) const;
   /// Sets secant_chosen_ for the attempt to t_new: in a frictional tension test whose step has
   /// a last increment, whether the secant predictor (held to secant_reach_) leaves a smaller
   /// relative residual than the ends' alone; false otherwise. Evaluates both (no tangent).

@@ -378,39 +378,27 @@ TEST(Biaxial, FrictionalTensionTestsPredictWithTheLastIncrementWhereItLeavesTheS
                 sim.total_iterations(), rec.failed, rec.secant, rec.ends, rec.none, rec.force);
     return rec;
   };
-  const auto frictional = [](std::string deck, const std::string& lines) {
-    const std::size_t contact = deck.find("[contact]\n");
-    EXPECT_NE(contact, std::string::npos);
-    deck.insert(contact + 10, lines);
-    return read_deck_string(deck, "weave.toml");
-  };
-  {
-    // The paper's fabric with an elastic slip, the whole test.
-    const Model m =
-        frictional(weave_deck(6, 0.11364e-3, 1.0), "friction = 0.2\nelastic_slip = 5e-6\n");
-    ASSERT_TRUE(has_friction(m));
-    const Choices chosen = run(m, true), ends = run(m, false);
-    // Both predictors are taken, and the attempt starts from the one with the smaller residual
-    // (evaluated again there: the projections' warm starts differ).
-    EXPECT_GT(chosen.secant, 10);
-    EXPECT_GT(chosen.ends, 3);
-    EXPECT_EQ(chosen.none, 1); // the first increment: no last increment yet
-    EXPECT_LT(chosen.worst, 1e-6);
-    EXPECT_EQ(ends.secant + ends.ends, 0);
-    EXPECT_EQ(chosen.failed, 0);
-    // Friction's path depends on the increments; the curves do not, to this measure.
-    EXPECT_NEAR(chosen.force, ends.force, 1e-4 * ends.force);
-  }
-  {
-    // A 3 x 3 weave with the constant tangential penalty: its crossings carry little normal force,
-    // so their stick range is a fraction of a micrometre. The secant carried on unchosen cost a
-    // failed attempt here, its first correction slipping 4 of the 5 points in stick.
-    const Model m = frictional(weave_deck(3, 0.11364e-3, 0.1), "friction = 0.2\n");
-    const Choices chosen = run(m, true), ends = run(m, false);
-    EXPECT_EQ(chosen.failed, 0);
-    EXPECT_EQ(ends.failed, 0);
-    EXPECT_LT(chosen.worst, 1e-6);
-  }
+  // The paper's fabric with an elastic slip, the whole test.
+  std::string deck = weave_deck(6, 0.11364e-3, 1.0);
+  const std::size_t contact = deck.find("[contact]\n");
+  ASSERT_NE(contact, std::string::npos);
+  deck.insert(contact + 10, "friction = 0.2\nelastic_slip = 5e-6\n");
+  const Model m = read_deck_string(deck, "weave.toml");
+  ASSERT_TRUE(has_friction(m));
+  const Choices chosen = run(m, true), ends = run(m, false);
+  // Both predictors are taken, and the attempt starts from the one with the smaller residual
+  // (evaluated again there: the projections' warm starts differ).
+  EXPECT_GT(chosen.secant, 10);
+  EXPECT_GT(chosen.ends, 3);
+  EXPECT_EQ(chosen.none, 1); // the first increment: no last increment yet
+  EXPECT_LT(chosen.worst, 1e-6);
+  EXPECT_EQ(ends.secant + ends.ends, 0);
+  EXPECT_EQ(chosen.failed, 0);
+  // Within an increment the histories are fixed, so the converged states do not depend on where
+  // Newton starts, but for the anchors of points that close during an attempt (measured: the
+  // same force to 1e-9 relative, 2 558.534359 N; the held secant taken at every increment ends
+  // 3.6e-6 away).
+  EXPECT_NEAR(chosen.force, ends.force, 1e-7 * ends.force);
 }
 
 TEST(Uniaxial, PulledCrimpGoesOutFreeCrimpGrowsAndFreeEndsCarryNoForce) {
