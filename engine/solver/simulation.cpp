@@ -615,6 +615,87 @@ double Simulation::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix
   return contact_->partitioned() ? distributed::smallest(limit) : limit;
 }
 
+double Simulation::limit_correction(const Eigen::VectorXd& delta, double lambda,
+                                    bool from_converged, double& du, double& da) {
+  const int n = state_.n_nodes();
+  // The largest nodal translation and rotation of delta (maxima: the same on any thread
+  // count).
+  const std::vector<int>& eq = assembler_->equations();
+  const auto [largest_du, largest_da] = tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, n, 1024), std::pair<double, double>{0.0, 0.0},
+      [&](const tbb::blocked_range<int>& range, std::pair<double, double> m) {
+        for (int i = range.begin(); i != range.end(); ++i) {
+          double translation = 0, rotation = 0;
+          for (int c = 0; c < 3; ++c) {
+            const int eu = eq[6 * i + c], ea = eq[6 * i + 3 + c];
+            translation += eu >= 0 ? delta(eu) * delta(eu) : 0.0;
+            rotation += ea >= 0 ? delta(ea) * delta(ea) : 0.0;
+          }
+          m.first = std::max(m.first, std::sqrt(translation));
+          m.second = std::max(m.second, std::sqrt(rotation));
+        }
+        return m;
+      },
+      [](std::pair<double, double> a, std::pair<double, double> b) {
+        return std::pair<double, double>{std::max(a.first, b.first), std::max(a.second, b.second)};
+      });
+  du = largest_du;
+  da = largest_da;
+  // Step limit: no node moves by more than the smallest contact radius in one correction
+  // (formulation.md "Solution"). A larger correction comes from a near-mechanism of the
+  // tangent (a yarn turning about the line through its pinned ends, a floating yarn) and
+  // would carry yarns through each other, beyond what the contact's linearisation at the
+  // current candidates describes.
+  if (options_.line_search && max_contact_step_ > 0 && lambda * du > max_contact_step_)
+    lambda = max_contact_step_ / du;
+  // The closing limit (formulation.md "Solution"): a pair open where the correction starts
+  // penetrates at most closing_allowance times its smaller contact radius, to first order. A
+  // correction from a tangent that lacks the pairs it closes would otherwise throw floating
+  // yarns across the clearance, and the next one back (the active set cycling where many
+  // crossings close in one increment). The contact's last evaluation is of the configuration
+  // the correction starts from, except for the first correction solved at the converged state
+  // (same active set): the predictor's motion from it is then the offset.
+  if (options_.line_search && contact_ && options_.closing_allowance > 0) {
+    correction_motion_.resize(3, n);
+    tbb::parallel_for(tbb::blocked_range<int>(0, n, 1024), [&](const tbb::blocked_range<int>& r) {
+      for (int i = r.begin(); i != r.end(); ++i)
+        for (int c = 0; c < 3; ++c) {
+          const int e = eq[6 * i + c];
+          correction_motion_(c, i) = e >= 0 ? delta(e) : 0.0;
+        }
+    });
+    if (from_converged)
+      predictor_motion_ = state_.x - state_.x_n;
+    lambda = std::min(
+        lambda, closing_limit(correction_motion_, from_converged ? &predictor_motion_ : nullptr));
+  }
+  return lambda;
+}
+
+void Simulation::factorize_tangent() {
+  auto tick = std::chrono::steady_clock::now();
+  // Over several processes handing in their own entries, a process whose pairs need blocks it
+  // did not assemble before (in a pattern that already held them) analyses again with the
+  // others (a collective call).
+  bool own_changed = false;
+  if (partition_ && solver_->sums_partial_tangents()) {
+    own_changed = distributed::any(own_couplings_changed_);
+    own_couplings_changed_ = false;
+  }
+  if (own_changed || analysed_pattern_ != assembler_->pattern_version()) {
+    if (partition_ && solver_->sums_partial_tangents())
+      solver_->set_own_entries(assembler_->own_entries(*partition_, own_couplings_));
+    solver_->analyze(assembler_->matrix());
+    analysed_pattern_ = assembler_->pattern_version();
+  }
+  auto now = std::chrono::steady_clock::now();
+  stage_times_.convergence_check += std::chrono::duration<double>(now - tick).count();
+  tick = now;
+  solver_->factorize(assembler_->matrix());
+  stage_times_.factorisation +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - tick).count();
+}
+
 bool Simulation::frictional_tension_test() const {
   return options_.kinematic_predictor && model_.biaxial && has_friction(model_);
 }
@@ -622,18 +703,37 @@ bool Simulation::frictional_tension_test() const {
 void Simulation::choose_predictor(const SolutionStep& step, const NewmarkCoefficients& nm,
                                   double t_new, double dt, Eigen::VectorXd& residual,
                                   IncrementReport& report) {
-  secant_chosen_ = false;
+  secant_chosen_ = secant_trial_ = false;
   report.secant_residual = report.ends_residual = std::numeric_limits<double>::quiet_NaN();
+  report.secant_corrected = report.ends_corrected = std::numeric_limits<double>::quiet_NaN();
   if (!frictional_tension_test() || step.secant_predictor || secant_step_ != step_)
     return;
   // A frictional tension test: the last increment's motion, held short of closing crossings
   // (secant_reach_), where it leaves a smaller residual than the ends alone; the ends alone
-  // otherwise (docs/performance.md, "The predictor chosen by its residual"). Two evaluations
-  // without the tangent; the points they anchor are dropped with them (begin_attempt).
+  // otherwise (docs/performance.md, "The predictor chosen by its residual"). The residuals are
+  // compared after the attempt's first correction where it comes from the converged state's
+  // tangent (attempt(); "The predictor chosen after its first correction"), here otherwise.
+  // Evaluations without the tangent; the points they anchor are dropped with them
+  // (begin_attempt).
   secant_chosen_ = true;
   predict(t_new, dt);
   const Evaluation secant = evaluate(step, nm, t_new, false, residual);
   secant_chosen_ = false;
+  if (secant.veto.empty()) {
+    secant_at_predictor_ = secant;
+    secant_rhs_ = rhs_;
+    secant_active_set_ = contact_ ? contact_->summary().active_set : 0;
+  }
+  if (options_.line_search && options_.first_correction_from_converged_state) {
+    // The choice is made after the first correction, as the attempt's first iteration makes it
+    // (attempt()): it starts from the ends, whose residual it evaluates itself.
+    secant_trial_ = secant.veto.empty();
+    if (secant_trial_)
+      report.secant_residual = secant.relative;
+    if (contact_)
+      contact_->begin_attempt();
+    return;
+  }
   predict(t_new, dt);
   const Evaluation ends = evaluate(step, nm, t_new, false, residual);
   secant_chosen_ = secant.veto.empty() && (!ends.veto.empty() || secant.relative < ends.relative);
@@ -951,6 +1051,11 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   // first evaluation (force and moment residuals each over their reference).
   double residual_scale_force = 0, residual_scale_moment = 0;
   double start_residual = std::numeric_limits<double>::infinity();
+  // The first correction where the predictors' trial chose it (below): solved, and limited
+  // (lambda, and the largest nodal translation and rotation) where the contact's evaluation was
+  // its start's.
+  Eigen::VectorXd chosen_correction;
+  double chosen_lambda = -1, chosen_du = 0, chosen_da = 0;
   for (int iter = 0; iter <= step.max_iterations; ++iter) {
     if (stop_requested())
       throw_interrupted();
@@ -978,7 +1083,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       residual_scale_force = std::max(ev.ref_force, floor_force_);
       residual_scale_moment = std::max(ev.ref_moment, floor_moment_);
     }
-    const double scaled_residual =
+    double scaled_residual =
         std::hypot(ev.r_force / residual_scale_force, ev.r_moment / residual_scale_moment);
     const std::uint64_t active_set = contact_ ? contact_->summary().active_set : 0;
     // Also where the residual has fallen by less than a fifth over two iterations: full steps are
@@ -1078,35 +1183,99 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
           return again.veto;
       }
       rhs_ = rhs_at_predictor;
+      if (secant_trial_)
+        report.ends_residual = ev.relative;
+      if (secant_trial_ && !(same_contacts && secant_active_set_ == active_set)) {
+        // A predictor's first correction would not come from the converged state's tangent:
+        // the smaller residual at the predictors decides (choose_predictor), and where that is
+        // the secant's the attempt starts again from it.
+        secant_trial_ = false;
+        if (secant_at_predictor_.relative < ev.relative) {
+          secant_chosen_ = true;
+          if (contact_)
+            contact_->begin_attempt();
+          predict(t_new, dt);
+          report.residual_history.clear();
+          moment_history.clear();
+          residual_scale_force = residual_scale_moment = 0;
+          first_from_converged = true;
+          --iter;
+          continue;
+        }
+      }
+      if (secant_trial_) {
+        // A frictional tension test's predictors compared after their first corrections
+        // (choose_predictor; docs/performance.md, "The predictor chosen after its first
+        // correction"): the held secant's and the ends' corrections, both from the converged
+        // state's tangent (factorised once) and limited from its evaluation, each applied and
+        // evaluated (without the tangent, the attempt's anchors dropped before each); the
+        // smaller residual there wins, and its correction is this iteration's.
+        try {
+          factorize_tangent();
+        } catch (const LinearSolverError& e) {
+          return e.what();
+        }
+        auto tick = std::chrono::steady_clock::now();
+        Eigen::VectorXd ends_delta = solver_->solve(rhs_);
+        Eigen::VectorXd secant_delta = solver_->solve(secant_rhs_);
+        lap_from(tick, stage_times_.solve);
+        double ends_du = 0, ends_da = 0, secant_du = 0, secant_da = 0;
+        const double ends_lambda = limit_correction(ends_delta, 1.0, true, ends_du, ends_da);
+        secant_chosen_ = true;
+        predict(t_new, dt);
+        const double secant_lambda =
+            limit_correction(secant_delta, 1.0, true, secant_du, secant_da);
+        const auto corrected = [&](bool secant, const Eigen::VectorXd& d, double l) {
+          secant_chosen_ = secant;
+          if (contact_)
+            contact_->begin_attempt();
+          predict(t_new, dt);
+          if (options_.mixed_integration_point)
+            start_mixed_stresses(d, true);
+          move_along(d, l);
+          const Evaluation e = evaluate(step, nm, t_new, false, residual);
+          mixed_.active = false;
+          return e.veto.empty() ? e.relative : std::numeric_limits<double>::infinity();
+        };
+        report.secant_corrected = corrected(true, secant_delta, secant_lambda);
+        report.ends_corrected = corrected(false, ends_delta, ends_lambda);
+        secant_chosen_ = report.secant_corrected < report.ends_corrected;
+        if (contact_)
+          contact_->begin_attempt();
+        predict(t_new, dt);
+        if (secant_chosen_) {
+          const Evaluation& at = secant_at_predictor_;
+          rhs_ = secant_rhs_;
+          report.residual_history.back() = at.relative;
+          moment_history.back() = at.r_moment;
+          scaled_residual =
+              std::hypot(at.r_force / residual_scale_force, at.r_moment / residual_scale_moment);
+        }
+        chosen_correction = secant_chosen_ ? std::move(secant_delta) : std::move(ends_delta);
+        chosen_lambda = secant_chosen_ ? secant_lambda : ends_lambda;
+        chosen_du = secant_chosen_ ? secant_du : ends_du;
+        chosen_da = secant_chosen_ ? secant_da : ends_da;
+      }
+      secant_trial_ = false;
     }
 
-    // Solve.
-    auto tick = std::chrono::steady_clock::now();
-    try {
-      // Over several processes handing in their own entries, a process whose pairs need blocks
-      // it did not assemble before (in a pattern that already held them) analyses again with
-      // the others (a collective call).
-      bool own_changed = false;
-      if (partition_ && solver_->sums_partial_tangents()) {
-        own_changed = distributed::any(own_couplings_changed_);
-        own_couplings_changed_ = false;
+    // Solve (the predictors' trial above solved the first correction already).
+    Eigen::VectorXd next;
+    if (chosen_correction.size() > 0) {
+      next = std::move(chosen_correction);
+      chosen_correction = Eigen::VectorXd();
+    } else {
+      try {
+        factorize_tangent();
+      } catch (const LinearSolverError& e) {
+        return e.what();
       }
-      if (own_changed || analysed_pattern_ != assembler_->pattern_version()) {
-        if (partition_ && solver_->sums_partial_tangents())
-          solver_->set_own_entries(assembler_->own_entries(*partition_, own_couplings_));
-        solver_->analyze(assembler_->matrix());
-        analysed_pattern_ = assembler_->pattern_version();
-      }
-      lap_from(tick, stage_times_.convergence_check);
-      solver_->factorize(assembler_->matrix());
-    } catch (const LinearSolverError& e) {
-      return e.what();
+      if (stop_requested())
+        throw_interrupted();
+      auto tick = std::chrono::steady_clock::now();
+      next = solver_->solve(rhs_);
+      lap_from(tick, stage_times_.solve);
     }
-    lap_from(tick, stage_times_.factorisation);
-    if (stop_requested())
-      throw_interrupted();
-    Eigen::VectorXd next = solver_->solve(rhs_);
-    lap_from(tick, stage_times_.solve);
     if (!next.allFinite())
       return "the linear solve returned non-finite values";
     ++total_iterations_;
@@ -1145,57 +1314,13 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     report.energy_history.push_back(std::abs(delta.dot(rhs_)));
     lambda = options_.line_search && !damping_gave_up ? next_lambda : 1.0;
     next_lambda = 1;
-    // The largest nodal translation and rotation of delta (maxima: the same on any thread
-    // count).
-    const std::vector<int>& eq = assembler_->equations();
-    const auto [largest_du, largest_da] = tbb::parallel_reduce(
-        tbb::blocked_range<int>(0, n, 1024), std::pair<double, double>{0.0, 0.0},
-        [&](const tbb::blocked_range<int>& range, std::pair<double, double> m) {
-          for (int i = range.begin(); i != range.end(); ++i) {
-            double du = 0, da = 0;
-            for (int c = 0; c < 3; ++c) {
-              const int eu = eq[6 * i + c], ea = eq[6 * i + 3 + c];
-              du += eu >= 0 ? delta(eu) * delta(eu) : 0.0;
-              da += ea >= 0 ? delta(ea) * delta(ea) : 0.0;
-            }
-            m.first = std::max(m.first, std::sqrt(du));
-            m.second = std::max(m.second, std::sqrt(da));
-          }
-          return m;
-        },
-        [](std::pair<double, double> a, std::pair<double, double> b) {
-          return std::pair<double, double>{std::max(a.first, b.first),
-                                           std::max(a.second, b.second)};
-        });
-    last_du = largest_du;
-    last_da = largest_da;
-    // Step limit: no node moves by more than the smallest contact radius in one correction
-    // (formulation.md "Solution"). A larger correction comes from a near-mechanism of the
-    // tangent (a yarn turning about the line through its pinned ends, a floating yarn) and
-    // would carry yarns through each other, beyond what the contact's linearisation at the
-    // current candidates describes.
-    if (options_.line_search && max_contact_step_ > 0 && lambda * last_du > max_contact_step_)
-      lambda = max_contact_step_ / last_du;
-    // The closing limit (formulation.md "Solution"): a pair open where the correction starts
-    // penetrates at most closing_allowance times its smaller contact radius, to first order. A
-    // correction from a tangent that lacks the pairs it closes would otherwise throw floating
-    // yarns across the clearance, and the next one back (the active set cycling where many
-    // crossings close in one increment). The contact's last evaluation is of the configuration
-    // the correction starts from, except for the first correction solved at the converged state
-    // (same active set): the predictor's motion from it is then the offset.
-    if (options_.line_search && contact_ && options_.closing_allowance > 0) {
-      correction_motion_.resize(3, n);
-      tbb::parallel_for(tbb::blocked_range<int>(0, n, 1024), [&](const tbb::blocked_range<int>& r) {
-        for (int i = r.begin(); i != r.end(); ++i)
-          for (int c = 0; c < 3; ++c) {
-            const int e = eq[6 * i + c];
-            correction_motion_(c, i) = e >= 0 ? delta(e) : 0.0;
-          }
-      });
-      if (from_converged)
-        predictor_motion_ = state_.x - state_.x_n;
-      lambda = std::min(
-          lambda, closing_limit(correction_motion_, from_converged ? &predictor_motion_ : nullptr));
+    if (chosen_lambda >= 0) { // the trial's, limited where the contact's evaluation was its start's
+      lambda = std::min(lambda, chosen_lambda);
+      last_du = chosen_du;
+      last_da = chosen_da;
+      chosen_lambda = -1;
+    } else {
+      lambda = limit_correction(delta, lambda, from_converged, last_du, last_da);
     }
     if (options_.mixed_integration_point)
       start_mixed_stresses(delta, from_converged);

@@ -57,10 +57,16 @@ struct IncrementReport {
   double floor_relative = 0; ///< the floor relative to the residual's reference
   /// A frictional tension test's predictors (Simulation::choose_predictor) in the converged
   /// attempt: the relative residual at the last increment's motion (held short of closing
-  /// crossings) and at the ends' alone; the smaller is the predictor. NaN where none was chosen
-  /// (another model, a step's first increment).
+  /// crossings) and at the ends' alone. NaN where none was chosen (another model, a step's first
+  /// increment).
   double secant_residual = std::numeric_limits<double>::quiet_NaN();
   double ends_residual = std::numeric_limits<double>::quiet_NaN();
+  /// The relative residuals after each predictor's first correction, solved with the converged
+  /// state's tangent where both predictors have its active set; the smaller is the predictor,
+  /// its point the attempt's first iterate. NaN where they were not compared: the smaller of the
+  /// two above is then the predictor.
+  double secant_corrected = std::numeric_limits<double>::quiet_NaN();
+  double ends_corrected = std::numeric_limits<double>::quiet_NaN();
 };
 
 class SimulationObserver {
@@ -301,8 +307,22 @@ private:
   /// a last increment, whether the secant predictor (held to secant_reach_) leaves a smaller
   /// relative residual than the ends' alone; false otherwise. Evaluates both (no tangent).
   /// The two residuals go to the report (IncrementReport::secant_residual, ends_residual).
+  /// Where the attempt's first correction is solved with the converged state's tangent
+  /// (SimulationOptions), the secant's evaluation is kept for the choice after that correction
+  /// (secant_trial_, attempt()) and the attempt starts from the ends.
   void choose_predictor(const SolutionStep& step, const NewmarkCoefficients& nm, double t_new,
                         double dt, Eigen::VectorXd& residual, IncrementReport& report);
+  /// The fraction of a Newton correction delta (over the free equations) to apply, at most
+  /// lambda: the step limit (max_contact_step_) and the closing limit of its nodal translations
+  /// from the contact's last evaluation, moved by the predictor's motion from the converged
+  /// state where from_converged (formulation.md "Solution"); with the line search only. Sets
+  /// du (m) and da to delta's largest nodal translation and Rodrigues increment.
+  double limit_correction(const Eigen::VectorXd& delta, double lambda, bool from_converged,
+                          double& du, double& da);
+  /// Analyses the tangent's pattern where it changed since the last analysis (collectively over
+  /// several processes handing in their own entries) and factorises the assembler's matrix;
+  /// throws LinearSolverError.
+  void factorize_tangent();
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
   /// A force or moment v of the load at node, given along load.axes, as global components in
@@ -355,6 +375,13 @@ private:
   /// commit; +infinity where none closes). The predictor moves by min(dt / secant_dt_, it).
   double secant_reach_ = std::numeric_limits<double>::infinity();
   bool secant_chosen_ = false; ///< this attempt's predictor carries the secant (choose_predictor)
+  /// The secant predictor's evaluation kept for the choice after the first correction
+  /// (choose_predictor, attempt()): pending, its residual's figures, its right-hand side (minus
+  /// the residual over the free equations) and its contacts' active set.
+  bool secant_trial_ = false;
+  Evaluation secant_at_predictor_;
+  Eigen::VectorXd secant_rhs_;
+  std::uint64_t secant_active_set_ = 0;
   /// commit()'s per-node energy terms (3 x n_nodes, J), kept for their capacity.
   Eigen::Matrix3Xd commit_terms_;
   Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1
