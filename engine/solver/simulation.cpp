@@ -1215,6 +1215,8 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         } catch (const LinearSolverError& e) {
           return e.what();
         }
+        if (stop_requested())
+          throw_interrupted();
         auto tick = std::chrono::steady_clock::now();
         Eigen::VectorXd ends_delta = solver_->solve(rhs_);
         Eigen::VectorXd secant_delta = solver_->solve(secant_rhs_);
