@@ -748,8 +748,8 @@ void Simulation::choose_predictor(const SolutionStep& step, const NewmarkCoeffic
 void Simulation::predict(double t_new, double dt) {
   // The converged state, then the prescribed values at t_new. (Carrying the last increment's
   // motion on helps some decks and costs others: docs/performance.md, "The secant predictor";
-  // the steps that ask for it take it, and a frictional tension test where choose_predictor
-  // chose it.)
+  // the steps that ask for it take it, and a frictional tension test where it was chosen:
+  // choose_predictor, attempt().)
   state_.x = state_.x_n;
   state_.alpha.setZero();
   // The secant predictor: the free translations move on by the last converged increment's
