@@ -672,7 +672,7 @@ double Simulation::limit_correction(const Eigen::VectorXd& delta, double lambda,
   return lambda;
 }
 
-void Simulation::factorize_tangent() {
+std::string Simulation::factorize_tangent() {
   auto tick = std::chrono::steady_clock::now();
   // Over several processes handing in their own entries, a process whose pairs need blocks it
   // did not assemble before (in a pattern that already held them) analyses again with the
@@ -682,18 +682,25 @@ void Simulation::factorize_tangent() {
     own_changed = distributed::any(own_couplings_changed_);
     own_couplings_changed_ = false;
   }
-  if (own_changed || analysed_pattern_ != assembler_->pattern_version()) {
-    if (partition_ && solver_->sums_partial_tangents())
-      solver_->set_own_entries(assembler_->own_entries(*partition_, own_couplings_));
-    solver_->analyze(assembler_->matrix());
-    analysed_pattern_ = assembler_->pattern_version();
+  try {
+    if (own_changed || analysed_pattern_ != assembler_->pattern_version()) {
+      if (partition_ && solver_->sums_partial_tangents())
+        solver_->set_own_entries(assembler_->own_entries(*partition_, own_couplings_));
+      solver_->analyze(assembler_->matrix());
+      analysed_pattern_ = assembler_->pattern_version();
+    }
+    auto now = std::chrono::steady_clock::now();
+    stage_times_.convergence_check += std::chrono::duration<double>(now - tick).count();
+    tick = now;
+    solver_->factorize(assembler_->matrix());
+  } catch (const LinearSolverError& e) {
+    return e.what();
   }
-  auto now = std::chrono::steady_clock::now();
-  stage_times_.convergence_check += std::chrono::duration<double>(now - tick).count();
-  tick = now;
-  solver_->factorize(assembler_->matrix());
   stage_times_.factorisation +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - tick).count();
+  if (stop_requested())
+    throw_interrupted();
+  return {};
 }
 
 bool Simulation::frictional_tension_test() const {
@@ -1173,36 +1180,39 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       state_.x = state_.x_n;
       state_.alpha.setZero();
       const Evaluation at_converged = evaluate(step, nm, t_new, true, residual);
-      const bool same_contacts =
-          at_converged.veto.empty() && (!contact_ || contact_->summary().active_set == active_set);
+      const std::uint64_t converged_set = contact_ ? contact_->summary().active_set : 0;
+      const bool same_contacts = at_converged.veto.empty() && converged_set == active_set;
       from_converged = same_contacts;
       predict(t_new, dt);
+      if (secant_trial_) {
+        report.ends_residual = ev.relative;
+        if (!(same_contacts && secant_active_set_ == active_set)) {
+          // A predictor's first correction would not come from the converged state's tangent:
+          // the smaller residual at the predictors decides (choose_predictor), and where that
+          // is the secant's the attempt starts again from it, its first correction from the
+          // converged state's tangent where it has its contacts, from its own otherwise
+          // (evaluated at once, not after the converged state again).
+          secant_trial_ = false;
+          if (secant_at_predictor_.relative < ev.relative) {
+            secant_chosen_ = true;
+            if (contact_)
+              contact_->begin_attempt();
+            predict(t_new, dt);
+            report.residual_history.clear();
+            moment_history.clear();
+            residual_scale_force = residual_scale_moment = 0;
+            first_from_converged = at_converged.veto.empty() && secant_active_set_ == converged_set;
+            --iter;
+            continue;
+          }
+        }
+      }
       if (!same_contacts) {
         const Evaluation again = evaluate(step, nm, t_new, true, residual);
         if (!again.veto.empty())
           return again.veto;
       }
       rhs_ = rhs_at_predictor;
-      if (secant_trial_)
-        report.ends_residual = ev.relative;
-      if (secant_trial_ && !(same_contacts && secant_active_set_ == active_set)) {
-        // A predictor's first correction would not come from the converged state's tangent:
-        // the smaller residual at the predictors decides (choose_predictor), and where that is
-        // the secant's the attempt starts again from it.
-        secant_trial_ = false;
-        if (secant_at_predictor_.relative < ev.relative) {
-          secant_chosen_ = true;
-          if (contact_)
-            contact_->begin_attempt();
-          predict(t_new, dt);
-          report.residual_history.clear();
-          moment_history.clear();
-          residual_scale_force = residual_scale_moment = 0;
-          first_from_converged = true;
-          --iter;
-          continue;
-        }
-      }
       if (secant_trial_) {
         // A frictional tension test's predictors compared after their first corrections
         // (choose_predictor; docs/performance.md, "The predictor chosen after its first
@@ -1210,13 +1220,8 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         // state's tangent (factorised once) and limited from its evaluation, each applied and
         // evaluated (without the tangent, the attempt's anchors dropped before each); the
         // smaller residual there wins, and its correction is this iteration's.
-        try {
-          factorize_tangent();
-        } catch (const LinearSolverError& e) {
-          return e.what();
-        }
-        if (stop_requested())
-          throw_interrupted();
+        if (std::string why = factorize_tangent(); !why.empty())
+          return why;
         auto tick = std::chrono::steady_clock::now();
         Eigen::VectorXd ends_delta = solver_->solve(rhs_);
         Eigen::VectorXd secant_delta = solver_->solve(secant_rhs_);
@@ -1267,13 +1272,8 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       next = std::move(chosen_correction);
       chosen_correction = Eigen::VectorXd();
     } else {
-      try {
-        factorize_tangent();
-      } catch (const LinearSolverError& e) {
-        return e.what();
-      }
-      if (stop_requested())
-        throw_interrupted();
+      if (std::string why = factorize_tangent(); !why.empty())
+        return why;
       auto tick = std::chrono::steady_clock::now();
       next = solver_->solve(rhs_);
       lap_from(tick, stage_times_.solve);

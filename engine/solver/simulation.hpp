@@ -320,9 +320,10 @@ private:
   double limit_correction(const Eigen::VectorXd& delta, double lambda, bool from_converged,
                           double& du, double& da);
   /// Analyses the tangent's pattern where it changed since the last analysis (collectively over
-  /// several processes handing in their own entries) and factorises the assembler's matrix;
-  /// throws LinearSolverError.
-  void factorize_tangent();
+  /// several processes handing in their own entries) and factorises the assembler's matrix, then
+  /// looks at the stop request (throws Interrupted). Returns the solver's message where it
+  /// failed, "" otherwise.
+  std::string factorize_tangent();
   /// External force (N) and moment (N m) per node at time t, 6 x n_nodes.
   Eigen::Matrix<double, 6, Eigen::Dynamic> external_loads(double t) const;
   /// A force or moment v of the load at node, given along load.axes, as global components in
