@@ -166,6 +166,12 @@ struct SimulationOptions {
   /// semi-axes) in one correction; the correction is scaled down to the fraction where the first
   /// pair reaches it. 0: off. With `line_search` only.
   double closing_allowance = 0.02;
+  /// Where the residual is within its tolerance but the last correction, as applied, is not
+  /// within the increment tolerance, the increment criterion is tested on the simplified Newton
+  /// correction at the point reached (one solve with the last factorisation: Simulation::attempt,
+  /// formulation.md "Solution"), where the last step kept the active set; false: one more
+  /// iteration decides.
+  bool simplified_correction_check = true;
 };
 
 class Simulation {
@@ -317,6 +323,9 @@ private:
   /// from the contact's last evaluation, moved by the predictor's motion from the converged
   /// state where from_converged (formulation.md "Solution"); with the line search only. Sets
   /// du (m) and da to delta's largest nodal translation and Rodrigues increment.
+  /// The largest nodal translation (m) and rotation (rad) of a correction over the free
+  /// equations.
+  std::pair<double, double> largest_nodal_motion(const Eigen::VectorXd& delta) const;
   double limit_correction(const Eigen::VectorXd& delta, double lambda, bool from_converged,
                           double& du, double& da);
   /// Analyses the tangent's pattern where it changed since the last analysis (collectively over

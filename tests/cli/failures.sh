@@ -72,9 +72,11 @@ sed -e 's/^table = .*/table = [[0.0, 0.0], [0.05, 1.0], [0.1, 1.0], [0.11, 1e5],
   -e 's/^end_time = .*/end_time = 1.0/' \
   -e 's/^dt_max = .*/dt_max = 0.01\ndt_min = 0.002\nmax_iterations = 5/' \
   "$repo/examples/cantilever-vibration.toml" > dynamic.toml
-run dynamic 3 "step 1 stopped at t = 0.1 s" "$no_convergence" "$worst"
+# It stops after the last increment it completes before the jump (where, depends on how the
+# step grew on the way: 0.1025 s today), having stored every one of them (10 or more).
+run dynamic 3 "step 1 stopped at t = 0\.10[0-9]* s" "$no_convergence" "$worst"
 check_results dynamic out-dynamic "failed: "
-[ "$steps" -eq 10 ] || { echo "FAIL dynamic: $steps steps in results.h5, expected 10"; fail=1; }
+[ "$steps" -ge 10 ] || { echo "FAIL dynamic: $steps steps in results.h5, expected 10 or more"; fail=1; }
 check_stop_time dynamic
 check_status_message dynamic
 
