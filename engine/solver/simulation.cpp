@@ -616,7 +616,6 @@ double Simulation::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix
 }
 
 std::pair<double, double> Simulation::largest_nodal_motion(const Eigen::VectorXd& delta) const {
-  // Maxima: the same on any thread count.
   const int n = state_.n_nodes();
   const std::vector<int>& eq = assembler_->equations();
   return tbb::parallel_reduce(

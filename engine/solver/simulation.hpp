@@ -318,14 +318,14 @@ private:
   /// (secant_trial_, attempt()) and the attempt starts from the ends.
   void choose_predictor(const SolutionStep& step, const NewmarkCoefficients& nm, double t_new,
                         double dt, Eigen::VectorXd& residual, IncrementReport& report);
+  /// The largest nodal translation (m) and Rodrigues increment of a correction over the free
+  /// equations (maxima: the same on any thread count).
+  std::pair<double, double> largest_nodal_motion(const Eigen::VectorXd& delta) const;
   /// The fraction of a Newton correction delta (over the free equations) to apply, at most
   /// lambda: the step limit (max_contact_step_) and the closing limit of its nodal translations
   /// from the contact's last evaluation, moved by the predictor's motion from the converged
   /// state where from_converged (formulation.md "Solution"); with the line search only. Sets
   /// du (m) and da to delta's largest nodal translation and Rodrigues increment.
-  /// The largest nodal translation (m) and rotation (rad) of a correction over the free
-  /// equations.
-  std::pair<double, double> largest_nodal_motion(const Eigen::VectorXd& delta) const;
   double limit_correction(const Eigen::VectorXd& delta, double lambda, bool from_converged,
                           double& du, double& da);
   /// Analyses the tangent's pattern where it changed since the last analysis (collectively over
