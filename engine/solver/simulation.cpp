@@ -1119,8 +1119,13 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         step_du = std::max(step_du, (state_.x.col(i) - state_.x_n.col(i)).norm());
         step_da = std::max(step_da, state_.alpha.col(i).norm());
       }
-      increment_ok = lambda * last_du <= step.tol_increment * std::max(step_du, floor_length_) &&
-                     lambda * last_da <= step.tol_increment * std::max(step_da, 1e-12);
+      // A correction's largest nodal translation and rotation within the increment tolerance
+      // of the increment's motion.
+      const auto within_tolerance = [&](double du, double da) {
+        return du <= step.tol_increment * std::max(step_du, floor_length_) &&
+               da <= step.tol_increment * std::max(step_da, 1e-12);
+      };
+      increment_ok = within_tolerance(lambda * last_du, lambda * last_da);
       // The last correction, as applied, bounds the error of the point it started from; the
       // simplified Newton correction at the point reached, -K(x_k)^-1 r(x_k+1) with the
       // factorisation in hand, estimates the error of that point itself (Deuflhard, Newton
@@ -1134,9 +1139,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         const Eigen::VectorXd simplified = solver_->solve(rhs_);
         lap_from(tick, stage_times_.solve);
         const auto [simplified_du, simplified_da] = largest_nodal_motion(simplified);
-        increment_ok = simplified.allFinite() &&
-                       simplified_du <= step.tol_increment * std::max(step_du, floor_length_) &&
-                       simplified_da <= step.tol_increment * std::max(step_da, 1e-12);
+        increment_ok = simplified.allFinite() && within_tolerance(simplified_du, simplified_da);
       }
     }
     // A residual at round-off level cannot be improved: the last correction then only stirs
