@@ -561,6 +561,7 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
     // The secant predictor's last increment, where a step has used it.
     if (c.secant_step >= 0) {
       write_columns<3>(g, "secant_motion", c.secant_motion);
+      write_columns<3>(g, "secant_rotation", c.secant_rotation);
       h5::write_double_attribute(g, "secant_dt", c.secant_dt);
       h5::write_int_attribute(g, "secant_step", c.secant_step);
       h5::write_double_attribute(g, "secant_reach", c.secant_reach);
@@ -665,6 +666,9 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
   // Written by versions with the secant predictor, where a step used it.
   if (h5::exists(g, "secant_motion")) {
     c.secant_motion = read_columns<3>(g, "secant_motion", n);
+    // Written since the secant carries rotations (absent: the translations alone).
+    c.secant_rotation = h5::exists(g, "secant_rotation") ? read_columns<3>(g, "secant_rotation", n)
+                                                         : Eigen::Matrix3Xd::Zero(3, n);
     c.secant_dt = h5::read_double_attribute(g, "secant_dt");
     c.secant_step = h5::read_int_attribute(g, "secant_step");
     // Written since frictional tension tests choose the secant (absent: not held).

@@ -12,7 +12,8 @@
 //   /state       x_n, v_n, a_n, W_n, A_n, rotation_n (n_nodes, 3); Q_n (n_nodes, 9), each triad
 //                column-major; gauss_Q (2 n_elements, 9), gauss_kappa (2 n_elements, 3);
 //                reactions, load_n (n_nodes, 6); where a step took the secant predictor:
-//                secant_motion (n_nodes, 3), m, attributes secant_dt (s) and secant_step
+//                secant_motion (n_nodes, 3), m, secant_rotation (n_nodes, 3), rotation
+//                vectors, rad, attributes secant_dt (s) and secant_step
 //   /pattern     groups (n, 7) int32: a coupling's 6 nodes, then 1 with rotations, else 0
 //                (SimulationCheckpoint::pattern_groups); ordering (n_equations, 1) int32 and
 //                attribute ordering_fill: the LDL^T's kept ordering (absent: none)

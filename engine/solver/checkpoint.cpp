@@ -35,6 +35,7 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.energy_reference = energy_reference_;
   c.total_iterations = total_iterations_;
   c.secant_motion = secant_motion_;
+  c.secant_rotation = secant_rotation_;
   c.secant_dt = secant_dt_;
   c.secant_step = secant_step_;
   c.secant_reach = secant_reach_;
@@ -104,15 +105,18 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   damping_work_ = from.damping_work;
   energy_reference_ = from.energy_reference;
   total_iterations_ = from.total_iterations;
-  if (from.secant_step >= 0 && (from.secant_motion.cols() != n || !(from.secant_dt > 0)))
-    throw std::invalid_argument(fmt::format("checkpoint: the secant predictor's motion has {} "
-                                            "columns over {} s, expected {} (the model's nodes) "
-                                            "over a time > 0",
-                                            from.secant_motion.cols(), from.secant_dt, n));
+  if (from.secant_step >= 0 &&
+      (from.secant_motion.cols() != n || from.secant_rotation.cols() != n || !(from.secant_dt > 0)))
+    throw std::invalid_argument(fmt::format("checkpoint: the secant predictor's motion and "
+                                            "rotation have {} and {} columns over {} s, "
+                                            "expected {} (the model's nodes) over a time > 0",
+                                            from.secant_motion.cols(), from.secant_rotation.cols(),
+                                            from.secant_dt, n));
   if (!(from.secant_reach > 0))
     throw std::invalid_argument(fmt::format(
         "checkpoint: the secant predictor's reach is {}, expected > 0", from.secant_reach));
   secant_motion_ = from.secant_motion;
+  secant_rotation_ = from.secant_rotation;
   secant_dt_ = from.secant_dt;
   secant_step_ = from.secant_step;
   secant_reach_ = from.secant_reach;

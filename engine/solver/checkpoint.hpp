@@ -50,9 +50,11 @@ struct SimulationCheckpoint {
   double energy_reference = 0;                                     ///< J
   int total_iterations = 0;
   /// The secant predictor's last increment (SolutionStep::secant_predictor): every node's
-  /// motion (3 x n_nodes, m), the increment's size (s) and its step's index; -1 and empty when
-  /// no step of the run has used it yet.
+  /// motion (3 x n_nodes, m) and rotation (3 x n_nodes, rotation vectors, rad; zero where read
+  /// from a checkpoint written before the secant carried rotations), the increment's size (s)
+  /// and its step's index; -1 and empty when no step of the run has used it yet.
   Eigen::Matrix3Xd secant_motion;
+  Eigen::Matrix3Xd secant_rotation;
   double secant_dt = 0;
   int secant_step = -1;
   /// A frictional tension test's chosen secant is held to this fraction of the motion

@@ -17,6 +17,7 @@
 #include <tbb/flow_graph.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tuple>
 
 namespace yarnsim {
 
@@ -707,8 +708,8 @@ std::string Simulation::factorize_tangent() {
   return {};
 }
 
-bool Simulation::frictional_tension_test() const {
-  return options_.kinematic_predictor && model_.biaxial && has_friction(model_);
+bool Simulation::chooses_predictor() const {
+  return options_.kinematic_predictor && model_.biaxial;
 }
 
 void Simulation::choose_predictor(const SolutionStep& step, const NewmarkCoefficients& nm,
@@ -717,13 +718,17 @@ void Simulation::choose_predictor(const SolutionStep& step, const NewmarkCoeffic
   secant_chosen_ = secant_trial_ = false;
   report.secant_residual = report.ends_residual = std::numeric_limits<double>::quiet_NaN();
   report.secant_corrected = report.ends_corrected = std::numeric_limits<double>::quiet_NaN();
-  if (!frictional_tension_test() || step.secant_predictor || secant_step_ != step_)
+  report.secant_next_correction = report.ends_next_correction =
+      std::numeric_limits<double>::quiet_NaN();
+  if (!chooses_predictor() || step.secant_predictor || secant_step_ != step_)
     return;
-  // A frictional tension test: the last increment's motion, held short of closing crossings
-  // (secant_reach_), where it leaves a smaller residual than the ends alone; the ends alone
-  // otherwise (docs/performance.md, "The predictor chosen by its residual"). The residuals are
-  // compared after the attempt's first correction where it comes from the converged state's
-  // tangent (attempt(); "The predictor chosen after its first correction"), here otherwise.
+  // A tension test: the last increment's motion, held short of closing crossings
+  // (secant_reach_), where it leaves less than the ends' predictor (with friction the ends
+  // alone, frictionless with the pulled yarns' stretch); the ends' otherwise
+  // (docs/performance.md, "The predictor chosen by its residual", "The secant's rotations").
+  // They are compared after the attempt's first correction where it comes from the converged
+  // state's tangent (attempt(); "The predictor chosen after its first correction"), by their
+  // residuals here otherwise.
   // Evaluations without the tangent; the points they anchor are dropped with them
   // (begin_attempt).
   secant_chosen_ = true;
@@ -759,13 +764,17 @@ void Simulation::choose_predictor(const SolutionStep& step, const NewmarkCoeffic
 void Simulation::predict(double t_new, double dt) {
   // The converged state, then the prescribed values at t_new. (Carrying the last increment's
   // motion on helps some decks and costs others: docs/performance.md, "The secant predictor";
-  // the steps that ask for it take it, and a frictional tension test where it was chosen:
+  // the steps that ask for it take it, and a tension test where it was chosen:
   // choose_predictor, attempt().)
   state_.x = state_.x_n;
   state_.alpha.setZero();
   // The secant predictor: the free translations move on by the last converged increment's
-  // motion of this step, scaled to this increment's size (its first increment has none); the
-  // chosen one held short of closing crossings (secant_reach_).
+  // motion of this step, and the free rotations turn on by its rotations, scaled to this
+  // increment's size (its first increment has none); the chosen one held short of closing
+  // crossings (secant_reach_). Without the rotations the carried translations turn the yarns'
+  // tangents away from their sections (shear strains: a relative residual of 19 where the
+  // ends' predictor left 1.1 on the 24 x 24 weave; docs/performance.md, "The secant's
+  // rotations").
   const SolutionStep& step = model_.steps[static_cast<std::size_t>(step_)];
   const bool carry = (step.secant_predictor || secant_chosen_) && secant_step_ == step_;
   if (carry) {
@@ -777,6 +786,17 @@ void Simulation::predict(double t_new, double dt) {
       for (int c = 0; c < 3; ++c)
         if (eq[6 * i + c] >= 0)
           state_.x(c, i) += scale * secant_motion_(c, i);
+    // Q = exp(skew(scale theta)) Q_n as Rodrigues parameters (rotation.hpp); the components of
+    // prescribed rotations are set by apply_prescribed below.
+    for (int i = 0; i < state_.n_nodes(); ++i) {
+      const Eigen::Vector3d theta = scale * secant_rotation_.col(i);
+      if (theta.squaredNorm() == 0)
+        continue;
+      const Eigen::Vector3d alpha = rodrigues_of(rotation_matrix(theta));
+      for (int c = 0; c < 3; ++c)
+        if (eq[6 * i + 3 + c] >= 0)
+          state_.alpha(c, i) = alpha(c);
+    }
   }
   if (!options_.kinematic_predictor || carry) {
     apply_prescribed(t_new);
@@ -1238,12 +1258,16 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       }
       rhs_ = rhs_at_predictor;
       if (secant_trial_) {
-        // A frictional tension test's predictors compared after their first corrections
+        // A tension test's predictors compared after their first corrections
         // (choose_predictor; docs/performance.md, "The predictor chosen after its first
         // correction"): the held secant's and the ends' corrections, both from the converged
         // state's tangent (factorised once) and limited from its evaluation, each applied and
-        // evaluated (without the tangent, the attempt's anchors dropped before each); the
-        // smaller residual there wins, and its correction is this iteration's.
+        // evaluated (without the tangent, the attempt's anchors dropped before each). The
+        // shorter simplified Newton correction there (one more solve with that factorisation,
+        // in the scaled norm: the corrected point's distance from the solution, to first
+        // order) wins, and its correction is this iteration's. (The smaller residual chose the
+        // secant on the uniaxial test whose next iterate then lost quadratic convergence:
+        // docs/performance.md, "The secant's rotations".)
         if (std::string why = factorize_tangent(); !why.empty())
           return why;
         auto tick = std::chrono::steady_clock::now();
@@ -1256,6 +1280,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         predict(t_new, dt);
         const double secant_lambda =
             limit_correction(secant_delta, 1.0, true, secant_du, secant_da);
+        // The corrected point's relative residual and its simplified correction's scaled norm.
         const auto corrected = [&](bool secant, const Eigen::VectorXd& d, double l) {
           secant_chosen_ = secant;
           if (contact_)
@@ -1266,11 +1291,20 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
           move_along(d, l);
           const Evaluation e = evaluate(step, nm, t_new, false, residual);
           mixed_.active = false;
-          return e.veto.empty() ? e.relative : std::numeric_limits<double>::infinity();
+          constexpr double none = std::numeric_limits<double>::infinity();
+          if (!e.veto.empty())
+            return std::pair<double, double>{none, none};
+          auto tick = std::chrono::steady_clock::now();
+          const Eigen::VectorXd simplified = solver_->solve(rhs_);
+          lap_from(tick, stage_times_.solve);
+          return std::pair<double, double>{e.relative,
+                                           simplified.allFinite() ? scaled_norm(simplified) : none};
         };
-        report.secant_corrected = corrected(true, secant_delta, secant_lambda);
-        report.ends_corrected = corrected(false, ends_delta, ends_lambda);
-        secant_chosen_ = report.secant_corrected < report.ends_corrected;
+        std::tie(report.secant_corrected, report.secant_next_correction) =
+            corrected(true, secant_delta, secant_lambda);
+        std::tie(report.ends_corrected, report.ends_next_correction) =
+            corrected(false, ends_delta, ends_lambda);
+        secant_chosen_ = report.secant_next_correction < report.ends_next_correction;
         if (contact_)
           contact_->begin_attempt();
         predict(t_new, dt);
@@ -1370,8 +1404,11 @@ void Simulation::commit(const SolutionStep& step, double dt, double t_new) {
   // External work by the trapezoidal rule, with the loads before the nodes are updated.
   const Eigen::Matrix<double, 6, Eigen::Dynamic> load = external_loads(t_new);
   const std::vector<BeamReference>& refs = assembler_->references();
-  if (step.secant_predictor || frictional_tension_test()) {
+  if (step.secant_predictor || chooses_predictor()) {
     secant_motion_ = state_.x - state_.x_n;
+    secant_rotation_.resize(3, n);
+    for (int i = 0; i < n; ++i)
+      secant_rotation_.col(i) = rotation_vector_of_rodrigues<double>(state_.alpha.col(i));
     secant_dt_ = dt;
     secant_step_ = step_;
     // The fraction of this motion at which the first open pair of the converged state (the

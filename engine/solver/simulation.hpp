@@ -55,18 +55,22 @@ struct IncrementReport {
   /// Accepted with a residual within its round-off floor but not within the tolerance asked.
   bool at_floor = false;
   double floor_relative = 0; ///< the floor relative to the residual's reference
-  /// A frictional tension test's predictors (Simulation::choose_predictor) in the converged
-  /// attempt: the relative residual at the last increment's motion (held short of closing
-  /// crossings) and at the ends' alone. NaN where none was chosen (another model, a step's first
-  /// increment).
+  /// A tension test's predictors (Simulation::choose_predictor) in the converged attempt: the
+  /// relative residual at the last increment's motion (held short of closing crossings) and at
+  /// the ends' (with friction the ends alone, frictionless with the pulled yarns' stretch). NaN
+  /// where none was chosen (another model, a step's first increment).
   double secant_residual = std::numeric_limits<double>::quiet_NaN();
   double ends_residual = std::numeric_limits<double>::quiet_NaN();
   /// The relative residuals after each predictor's first correction, solved with the converged
-  /// state's tangent where both predictors have its active set; the smaller is the predictor,
-  /// its point the attempt's first iterate. NaN where they were not compared: the smaller of the
-  /// two above is then the predictor.
+  /// state's tangent where both predictors have its active set, and the scaled norms
+  /// (Simulation::scaled_norm) of the simplified Newton corrections there (that tangent's
+  /// factorisation again): the predictor whose simplified correction is the shorter is chosen,
+  /// its corrected point the attempt's first iterate. NaN where they were not compared: the
+  /// smaller of the two residuals above then decides.
   double secant_corrected = std::numeric_limits<double>::quiet_NaN();
   double ends_corrected = std::numeric_limits<double>::quiet_NaN();
+  double secant_next_correction = std::numeric_limits<double>::quiet_NaN();
+  double ends_next_correction = std::numeric_limits<double>::quiet_NaN();
 };
 
 class SimulationObserver {
@@ -302,16 +306,17 @@ private:
   /// picture frame's map or a frictionless tension test's stretch of its pulled yarns where the
   /// model has one (SimulationOptions::kinematic_predictor), then the prescribed values at t_new.
   void predict(double t_new, double dt);
-  /// A frictional tension test (SimulationOptions::kinematic_predictor, a biaxial or uniaxial
-  /// test, friction): its predictor is chosen per attempt by choose_predictor.
-  bool frictional_tension_test() const;
+  /// A tension test (SimulationOptions::kinematic_predictor, a biaxial or uniaxial test): its
+  /// predictor is chosen per attempt by choose_predictor, the held secant against the ends'.
+  bool chooses_predictor() const;
   /// The closing limit (ContactStage::closing_limit at SimulationOptions::closing_allowance) of
   /// the nodal translations du (3 x n_nodes, m) from the contact's last evaluation moved by
   /// offset, over every process (the smallest); needs contact.
   double closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset) const;
-  /// Sets secant_chosen_ for the attempt to t_new: in a frictional tension test whose step has
-  /// a last increment, whether the secant predictor (held to secant_reach_) leaves a smaller
-  /// relative residual than the ends' alone; false otherwise. Evaluates both (no tangent).
+  /// Sets secant_chosen_ for the attempt to t_new: in a tension test whose step has a last
+  /// increment, whether the secant predictor (held to secant_reach_) leaves a smaller relative
+  /// residual than the ends' (with friction the ends alone, frictionless with the stretch of
+  /// the pulled yarns); false otherwise. Evaluates both (no tangent).
   /// The two residuals go to the report (IncrementReport::secant_residual, ends_residual).
   /// Where the attempt's first correction is solved with the converged state's tangent
   /// (SimulationOptions), the secant's evaluation is kept for the choice after that correction
@@ -375,9 +380,11 @@ private:
   /// translations and the predictor's motion from the converged state (3 x n_nodes, m).
   Eigen::Matrix3Xd correction_motion_, predictor_motion_;
   /// The secant predictor's (SolutionStep::secant_predictor, or chosen: choose_predictor): the
-  /// last converged increment's motion of every node (3 x n, m), its size (s) and its step's
-  /// index (-1: none yet).
+  /// last converged increment's motion of every node (3 x n, m) and its rotations (3 x n,
+  /// rotation vectors in rad: Q_n = exp(skew(theta)) Q_n-1), its size (s) and its step's index
+  /// (-1: none yet).
   Eigen::Matrix3Xd secant_motion_;
+  Eigen::Matrix3Xd secant_rotation_;
   double secant_dt_ = 0;
   int secant_step_ = -1;
   /// The chosen secant's reach: the fraction of secant_motion_ at which the first contact pair

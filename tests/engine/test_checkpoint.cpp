@@ -288,6 +288,8 @@ TEST_F(Checkpoint, BiasExtensionWithTheSecantPredictorGoesOnBitForBit) {
                              {static_cast<int>(k), {{"curves.csv", 7}}, "bias"});
     const output::StoredCheckpoint stored = output::read_checkpoint(dir);
     EXPECT_TRUE(same_bits(stored.simulation.secant_motion, straight.checkpoints[k].secant_motion));
+    EXPECT_TRUE(
+        same_bits(stored.simulation.secant_rotation, straight.checkpoints[k].secant_rotation));
     Recorder restarted;
     Simulation(m, {}, stored.simulation).run(&restarted);
     expect_same_continuation(straight, k, restarted);
@@ -337,6 +339,8 @@ TEST_F(Checkpoint, FrictionalTensionTestWithTheChosenPredictorGoesOnBitForBit) {
     const output::StoredCheckpoint stored = output::read_checkpoint(dir);
     EXPECT_EQ(stored.simulation.secant_reach, straight.checkpoints[k].secant_reach);
     EXPECT_TRUE(same_bits(stored.simulation.secant_motion, straight.checkpoints[k].secant_motion));
+    EXPECT_TRUE(
+        same_bits(stored.simulation.secant_rotation, straight.checkpoints[k].secant_rotation));
     Choices restarted;
     Simulation(m, {}, stored.simulation).run(&restarted);
     expect_same_continuation(straight, k, restarted);
