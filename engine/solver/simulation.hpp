@@ -302,9 +302,10 @@ private:
   ExplicitProgress explicit_progress() const;
   void apply_prescribed(double t_new);
   /// The predictor of an increment from t_new - dt to t_new: the converged state, moved on by the
-  /// last increment's motion where the step asks (SolutionStep::secant_predictor), or else with a
-  /// picture frame's map or a frictionless tension test's stretch of its pulled yarns where the
-  /// model has one (SimulationOptions::kinematic_predictor), then the prescribed values at t_new.
+  /// last increment's motion and rotations where the step asks (SolutionStep::secant_predictor)
+  /// or a tension test chose them (choose_predictor), or else with a picture frame's map or a
+  /// frictionless tension test's stretch of its pulled yarns where the model has one
+  /// (SimulationOptions::kinematic_predictor), then the prescribed values at t_new.
   void predict(double t_new, double dt);
   /// A tension test (SimulationOptions::kinematic_predictor, a biaxial or uniaxial test): its
   /// predictor is chosen per attempt by choose_predictor, the held secant against the ends'.

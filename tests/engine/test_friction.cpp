@@ -253,9 +253,10 @@ TEST(Friction, WithAnElasticSlipAPointHoldsWhereItTouchedForTheRestOfTheAttempt)
     // the same force the other way.
     ASSERT_EQ(iterate(open).active, 0);
     EXPECT_EQ(iterate(slid).tangential_force, 0.0);
-    if (elastic_slip > 0)
+    if (elastic_slip > 0) {
       EXPECT_NEAR(iterate(touching).tangential_force, after.tangential_force,
                   1e-6 * after.tangential_force);
+    }
     // A new attempt forgets the anchor of the last one.
     stage->begin_attempt();
     EXPECT_EQ(iterate(touching).tangential_force, 0.0);
