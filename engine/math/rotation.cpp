@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
+#include <cmath>
 #include <stdexcept>
 
 namespace yarnsim {
@@ -25,6 +26,13 @@ Eigen::Vector3d rodrigues_of(const Eigen::Matrix3d& Q) {
   if (std::abs(w) < 1e-12)
     throw std::domain_error("rodrigues_of: rotation of pi has no Rodrigues parameters");
   return 2.0 * q.vec() / w;
+}
+
+Eigen::Vector3d rodrigues_of_vector(const Eigen::Vector3d& phi) {
+  const double a = phi.norm();
+  if (a < 1e-6)
+    return (1.0 + a * a / 12.0) * phi;
+  return (2.0 * std::tan(0.5 * a) / a) * phi;
 }
 
 Eigen::Matrix3d triad_from(const Eigen::Vector3d& axis, const Eigen::Vector3d& reference) {

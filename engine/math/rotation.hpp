@@ -75,6 +75,10 @@ Eigen::Vector3d rotation_vector(const Eigen::Matrix3d& Q);
 /// Rodrigues parameters of a rotation tensor whose angle is below pi.
 Eigen::Vector3d rodrigues_of(const Eigen::Matrix3d& Q);
 
+/// Rodrigues parameters 2 tan(|phi| / 2) phi / |phi| of the rotation vector phi (|phi| < pi):
+/// rodrigues_rotation of them is rotation_matrix(phi).
+Eigen::Vector3d rodrigues_of_vector(const Eigen::Vector3d& phi);
+
 /// An orthonormal triad (columns e1, e2, e3) with e3 along axis and e1 along the part of
 /// reference normal to it. Throws std::invalid_argument when reference is parallel to axis.
 Eigen::Matrix3d triad_from(const Eigen::Vector3d& axis, const Eigen::Vector3d& reference);

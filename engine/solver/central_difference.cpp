@@ -58,14 +58,6 @@ namespace {
 
 constexpr double kLump[3] = {1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0};
 
-/// Rodrigues parameters 2 tan(|phi| / 2) phi / |phi| of the rotation vector phi (|phi| < pi).
-Eigen::Vector3d rodrigues_of_vector(const Eigen::Vector3d& phi) {
-  const double a = phi.norm();
-  if (a < 1e-6)
-    return (1.0 + a * a / 12.0) * phi;
-  return (2.0 * std::tan(0.5 * a) / a) * phi;
-}
-
 /// omega with [I omega]_c = pi_c on the free components c and omega_c = 0 on the others, for the
 /// spatial inertia I = Q diag(J) Q^T.
 Eigen::Vector3d solve_free(const Eigen::Matrix3d& Q, const Eigen::Vector3d& J,

@@ -782,20 +782,16 @@ void Simulation::predict(double t_new, double dt) {
     const double ratio = dt / secant_dt_;
     // A step's own secant is not held (its reach is +infinity: commit).
     const double scale = std::min(ratio, secant_reach_);
-    for (int i = 0; i < state_.n_nodes(); ++i)
-      for (int c = 0; c < 3; ++c)
+    // Q = exp(skew(scale theta)) Q_n as Rodrigues parameters (rotation.hpp); the components of
+    // prescribed DOFs are set by apply_prescribed below.
+    for (int i = 0; i < state_.n_nodes(); ++i) {
+      const Eigen::Vector3d alpha = rodrigues_of_vector(scale * secant_rotation_.col(i));
+      for (int c = 0; c < 3; ++c) {
         if (eq[6 * i + c] >= 0)
           state_.x(c, i) += scale * secant_motion_(c, i);
-    // Q = exp(skew(scale theta)) Q_n as Rodrigues parameters (rotation.hpp); the components of
-    // prescribed rotations are set by apply_prescribed below.
-    for (int i = 0; i < state_.n_nodes(); ++i) {
-      const Eigen::Vector3d theta = scale * secant_rotation_.col(i);
-      if (theta.squaredNorm() == 0)
-        continue;
-      const Eigen::Vector3d alpha = rodrigues_of(rotation_matrix(theta));
-      for (int c = 0; c < 3; ++c)
         if (eq[6 * i + 3 + c] >= 0)
           state_.alpha(c, i) = alpha(c);
+      }
     }
   }
   if (!options_.kinematic_predictor || carry) {

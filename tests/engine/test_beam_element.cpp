@@ -225,6 +225,11 @@ TEST(Rotation, RodriguesIdentities) {
   EXPECT_LT((Q.transpose() * Xi - Xi.transpose()).norm(), 1e-14);
   EXPECT_LT((rotation_matrix(rotation_vector_of_rodrigues<double>(a)) - Q).norm(), 1e-13);
   EXPECT_LT((rodrigues_of(Q) - a).norm(), 1e-12);
+  // The Rodrigues parameters of a rotation vector, on both sides of the small-angle series.
+  EXPECT_LT((rodrigues_of_vector(rotation_vector_of_rodrigues<double>(a)) - a).norm(), 1e-12);
+  const Eigen::Vector3d tiny(3e-7, -2e-7, 1e-7);
+  EXPECT_LT((rodrigues_rotation<double>(rodrigues_of_vector(tiny)) - rotation_matrix(tiny)).norm(),
+            1e-15);
   // Spin of a varying parameter: skew(Xi da) = dQ Q^T.
   const Eigen::Vector3d da(0.3, 0.1, -0.2);
   const double h = 1e-6;

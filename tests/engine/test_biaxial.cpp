@@ -480,7 +480,7 @@ TEST(Biaxial, TensionTestsPredictWithTheLastIncrementWhereItLeavesTheShorterCorr
     // warm starts differ), and its first iterate is the chosen corrected point, evaluated
     // again with the tangent. With the choice reversed both checks fail.
     EXPECT_GT(chosen.secant, 10);
-    EXPECT_GT(chosen.ends, 2);
+    EXPECT_GT(chosen.ends, 3); // measured: 5 with friction, 6 frictionless
     EXPECT_GT(chosen.compared, 30);
     EXPECT_EQ(chosen.none, 1); // the first increment: no last increment yet
     EXPECT_LT(chosen.worst, 1e-6);
