@@ -238,9 +238,12 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   std::vector<double> half_compaction(definitions_.size());
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     half_compaction[k] = definitions_[k]->compaction.at(time_) / 2;
-  // One work item's projection and contact from `start`.
-  const auto project_item = [&](std::size_t w, const contact::ProjectionStart& start) {
-    Work& item = work_[w];
+  // One work item's projection and contact from `start`, into `result` (and, where the
+  // definition has friction, `sensitivity`).
+  const auto project_item_into = [&](std::size_t w, const contact::ProjectionStart& start,
+                                     contact::SplineContactResult& result,
+                                     contact::SplineContactSensitivity* sensitivity_out) {
+    const Work& item = work_[w];
     const Definition& d = *definitions_[item.definition];
     Eigen::Matrix3d A, B;
     control_points(d, item.pair, x, A, B);
@@ -250,7 +253,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
     const double rb = d.radius[item.pair.second] + half;
     const auto& sa = segment_of(d, item.pair.first);
     const auto& sb = segment_of(d, item.pair.second);
-    contact::SplineContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
+    contact::SplineContactSensitivity* sensitivity = d.friction ? sensitivity_out : nullptr;
     const contact::PairRates* pair_rates = nullptr;
     contact::PairRates local_rates;
     if (rates != nullptr && d.damped) {
@@ -260,11 +263,14 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
     if (d.line_contact) {
       // The first segment of a pair is the line contact's slave.
       contact::all_angle_contact(A, sa, ra, B, sb, rb, start, *d.law, all_angle_of(d, ra, rb),
-                                 item.result, options, sensitivity, pair_rates);
+                                 result, options, sensitivity, pair_rates);
     } else {
-      contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, item.result, options, pair_rates,
+      contact::spline_contact(A, sa, ra, B, sb, rb, start, *d.law, result, options, pair_rates,
                               sensitivity);
     }
+  };
+  const auto project_item = [&](std::size_t w, const contact::ProjectionStart& start) {
+    project_item_into(w, start, work_[w].result, any_friction_ ? &sensitivity_[w] : nullptr);
   };
   // Each item also notes whether it may hand its point over (below): the serial pass then reads
   // one byte per item, not the items' results (kilobytes apart).
@@ -290,46 +296,77 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   // So a pair whose point lies out of its range within the neighbouring segment's range, the
   // surfaces overlapping, hands that point to that neighbour (on both curves where it left both
   // ranges) when that neighbour's point is out of range too: the neighbour is projected again
-  // from it, and keeps its first result unless it now owns a point. Serial, in the work list's
-  // order: the same on any thread count.
-  for (std::size_t w = 0; w < work_.size(); ++w) {
-    if (!may_hand_over_[w])
+  // from it, and keeps its first result unless it now owns a point.
+  //
+  // As one serial pass in the work list's order, with the same result on any thread count: a
+  // pair handed a point that it owns hands none of its own, and a neighbour takes the first
+  // point it owns. Each handed point's projection depends on the first results alone (of the
+  // handing pair, which has kept its own, and of its neighbour, still out of range), so they are
+  // all computed in parallel first, then taken in that order.
+  hand_overs_.clear();
+  for (std::size_t w = 0; w < work_.size(); ++w)
+    if (may_hand_over_[w])
+      hand_overs_.push_back({static_cast<int>(w), -1});
+  // The neighbour each point would go to (most overlapping out-of-range pairs have none).
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, hand_overs_.size(), 16),
+      [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t h = range.begin(); h != range.end(); ++h) {
+          HandOver& hand = hand_overs_[h];
+          const Work& item = work_[static_cast<std::size_t>(hand.from)];
+          const contact::SplineContactResult& r = item.result;
+          const Definition& d = *definitions_[item.definition];
+          // The neighbouring segment id on the side the point left (or id itself), -1 for
+          // none: the point lies within that neighbour's range (the ranges are equally long in
+          // xi).
+          const auto neighbour = [&](int id, double xi) {
+            const contact::SegmentBasis& b = segment_of(d, id);
+            if (b.owns(xi))
+              return id;
+            if (std::abs(b.local(xi)) > 1.5)
+              return -1;
+            const int next = xi < b.begin() ? id - 1 : id + 1;
+            if (next < 0 || next >= static_cast<int>(d.spline.size()) ||
+                d.spline[next] != d.spline[id])
+              return -1;
+            return next;
+          };
+          const int na = neighbour(item.pair.first, r.xi_A);
+          const int nb = neighbour(item.pair.second, r.xi_B);
+          const int n = na < 0 || nb < 0 ? -1 : work_index(Key{item.definition, na, nb});
+          if (n >= 0 && work_[static_cast<std::size_t>(n)].result.status ==
+                            contact::ProjectionStatus::OutOfRange)
+            hand.to = n;
+        }
+      });
+  std::erase_if(hand_overs_, [](const HandOver& hand) { return hand.to < 0; });
+  // The neighbours' projections from the handed points (the buffers keep their capacity).
+  if (handed_results_.size() < hand_overs_.size())
+    handed_results_.resize(hand_overs_.size());
+  if (any_friction_ && handed_sensitivity_.size() < hand_overs_.size())
+    handed_sensitivity_.resize(hand_overs_.size());
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, hand_overs_.size(), 1),
+      [&](const tbb::blocked_range<std::size_t>& range) {
+        for (std::size_t h = range.begin(); h != range.end(); ++h) {
+          const HandOver& hand = hand_overs_[h];
+          const contact::SplineContactResult& r = work_[static_cast<std::size_t>(hand.from)].result;
+          project_item_into(static_cast<std::size_t>(hand.to),
+                            contact::ProjectionStart{r.xi_A, r.xi_B, true}, handed_results_[h],
+                            any_friction_ ? &handed_sensitivity_[h] : nullptr);
+        }
+      });
+  handed_.assign(work_.size(), 0);
+  for (std::size_t h = 0; h < hand_overs_.size(); ++h) {
+    const std::size_t from = static_cast<std::size_t>(hand_overs_[h].from);
+    const std::size_t to = static_cast<std::size_t>(hand_overs_[h].to);
+    if (handed_[from] || handed_[to] ||
+        handed_results_[h].status != contact::ProjectionStatus::Converged)
       continue;
-    const Work& item = work_[w];
-    const contact::SplineContactResult& r = item.result;
-    if (r.status != contact::ProjectionStatus::OutOfRange) // handed a point earlier in the pass
-      continue;
-    const Definition& d = *definitions_[item.definition];
-    // The neighbouring segment id on the side the point left (or id itself), -1 for none: the
-    // point lies within that neighbour's range (the ranges are equally long in xi).
-    const auto neighbour = [&](int id, double xi) {
-      const contact::SegmentBasis& b = segment_of(d, id);
-      if (b.owns(xi))
-        return id;
-      if (std::abs(b.local(xi)) > 1.5)
-        return -1;
-      const int next = xi < b.begin() ? id - 1 : id + 1;
-      if (next < 0 || next >= static_cast<int>(d.spline.size()) || d.spline[next] != d.spline[id])
-        return -1;
-      return next;
-    };
-    const int na = neighbour(item.pair.first, r.xi_A), nb = neighbour(item.pair.second, r.xi_B);
-    if (na < 0 || nb < 0)
-      continue;
-    const int n = work_index(Key{item.definition, na, nb});
-    if (n < 0 || work_[n].result.status != contact::ProjectionStatus::OutOfRange)
-      continue;
-    const std::size_t k = static_cast<std::size_t>(n);
-    const contact::SplineContactResult kept = work_[k].result;
-    contact::SplineContactSensitivity kept_sensitivity;
-    if (d.friction)
-      kept_sensitivity = sensitivity_[k];
-    project_item(k, contact::ProjectionStart{r.xi_A, r.xi_B, true});
-    if (work_[k].result.status != contact::ProjectionStatus::Converged) {
-      work_[k].result = kept;
-      if (d.friction)
-        sensitivity_[k] = kept_sensitivity;
-    }
+    handed_[to] = 1;
+    work_[to].result = handed_results_[h];
+    if (definitions_[work_[to].definition]->friction)
+      sensitivity_[to] = handed_sensitivity_[h];
   }
 
   if (any_friction_) {
@@ -417,22 +454,16 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
 
   summarise();
 
-  // Veto: a pair in contact at the last converged increment whose projection failed or jumped.
-  for (const Work& item : work_) {
-    const auto status = item.result.status;
-    if (status != contact::ProjectionStatus::NotConverged &&
-        status != contact::ProjectionStatus::Jumped)
-      continue;
-    const bool was_active = item.warm >= 0 && committed_[item.warm].active;
-    if (was_active || item.result.active) {
-      const Definition& d = *definitions_[item.definition];
-      return fmt::format(
-          "contact '{}': projection {} between spline '{}' segment {} and spline "
-          "'{}' segment {}",
-          model_.spline_contacts[item.definition].name, contact::to_string(status),
-          model_.splines[d.spline[item.pair.first]].name, d.segment[item.pair.first] + 1,
-          model_.splines[d.spline[item.pair.second]].name, d.segment[item.pair.second] + 1);
-    }
+  // Veto: a pair in contact at the last converged increment whose projection failed or jumped
+  // (the first in the work list's order, found by summarise).
+  if (scan_.first_vetoed >= 0) {
+    const Work& item = work_[static_cast<std::size_t>(scan_.first_vetoed)];
+    const Definition& d = *definitions_[item.definition];
+    return fmt::format(
+        "contact '{}': projection {} between spline '{}' segment {} and spline '{}' segment {}",
+        model_.spline_contacts[item.definition].name, contact::to_string(item.result.status),
+        model_.splines[d.spline[item.pair.first]].name, d.segment[item.pair.first] + 1,
+        model_.splines[d.spline[item.pair.second]].name, d.segment[item.pair.second] + 1);
   }
   return {};
 }
@@ -899,11 +930,29 @@ bool SplineContactSet::past_curve_end(const Definition& d, int id, double xi) co
 void SplineContactSet::summarise() {
   summary_ = {};
   summary_.candidates = static_cast<int>(work_.size());
-  summary_.min_gap = std::numeric_limits<double>::infinity();
-  for (const Work& w : work_) {
-    const auto& r = w.result;
+  // In parallel (scan_work); the listed items (active, out of range where a point was, with
+  // friction) are then summed here in their order.
+  scan_work(work_.size(), scan_blocks_, scan_, [&](std::size_t w) {
+    const Work& item = work_[w];
+    const contact::SplineContactResult& r = item.result;
+    const bool was_active = item.warm >= 0 &&
+                            static_cast<std::size_t>(item.warm) < committed_.size() &&
+                            committed_[static_cast<std::size_t>(item.warm)].active;
+    ItemScan out;
     if (r.status == contact::ProjectionStatus::Converged)
-      summary_.min_gap = std::min(summary_.min_gap, r.gap);
+      out.gap = r.gap;
+    out.vetoes = (r.status == contact::ProjectionStatus::NotConverged ||
+                  r.status == contact::ProjectionStatus::Jumped) &&
+                 (was_active || r.active);
+    out.listed = r.active ||
+                 (r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0 && was_active) ||
+                 (any_friction_ && w < friction_.size() && friction_[w].active);
+    return out;
+  });
+  summary_.min_gap = scan_.min_gap;
+  for (const int k : scan_.listed) {
+    const Work& w = work_[static_cast<std::size_t>(k)];
+    const auto& r = w.result;
     if (r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0 && w.warm >= 0 &&
         static_cast<std::size_t>(w.warm) < committed_.size() &&
         committed_[static_cast<std::size_t>(w.warm)].active) {
@@ -933,7 +982,10 @@ void SplineContactSet::summarise() {
   summary_.dissipation = dissipated_;
   if (!any_friction_)
     return;
-  for (std::size_t w = 0; w < friction_.size(); ++w) {
+  for (const int k : scan_.listed) {
+    const std::size_t w = static_cast<std::size_t>(k);
+    if (w >= friction_.size())
+      break;
     const contact::SplineFrictionResult& f = friction_[w];
     if (!f.active)
       continue;

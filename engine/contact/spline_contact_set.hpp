@@ -153,7 +153,7 @@ private:
   /// The pair's control-point velocities from the nodal `rates` (A's three, then B's).
   void pair_velocities(const Definition& d, const broadphase::CandidatePair& p,
                        const ContactRates& rates, contact::PairRates& out) const;
-  /// summary_ from work_.
+  /// summary_ from work_, and scan_ (the first vetoed item).
   void summarise();
   /// Gives each active frictional point contact the history it holds fixed (serial: a history
   /// handed over from a neighbouring pair goes to one point only).
@@ -211,6 +211,20 @@ private:
   /// Per work item of the last projection: its point lies out of range with the surfaces
   /// overlapping, so it may hand the point to a neighbouring pair (project's hand-over pass).
   std::vector<char> may_hand_over_;
+  /// The hand-over pass's points: the pair handing its point and the neighbour taking it, the
+  /// neighbours' projections from them (kept for their capacity: only the first
+  /// hand_overs_.size() are this pass's), and per work item whether it took one.
+  struct HandOver {
+    int from = -1, to = -1;
+  };
+  std::vector<HandOver> hand_overs_;
+  std::vector<contact::SplineContactResult> handed_results_;
+  std::vector<contact::SplineContactSensitivity> handed_sensitivity_;
+  std::vector<char> handed_;
+  /// summarise()'s pass (scan_work): the smallest gap, the first vetoed item (project's veto)
+  /// and the items that add to the summary; and its blocks, kept for their capacity.
+  WorkScan scan_;
+  std::vector<WorkScan> scan_blocks_;
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;
   /// assemble()'s buffers, kept for their capacity: the active work items, the slots of the

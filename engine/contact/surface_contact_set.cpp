@@ -331,25 +331,19 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
   summarise();
 
   // Veto: a pair in contact at the last converged increment, or now, whose projection failed or
-  // jumped.
-  for (const Work& item : work_) {
-    const auto status = item.result.status;
-    if (status != contact::ProjectionStatus::NotConverged &&
-        status != contact::ProjectionStatus::Jumped)
-      continue;
-    const bool was_active = item.warm >= 0 && committed_[item.warm].active;
-    if (was_active || item.result.active) {
-      const Definition& d = *definitions_[item.definition];
-      const auto element = [&](int s) {
-        return model_.surfaces[d.surface[s]].elements[d.position[s]] + 1;
-      };
-      return fmt::format("contact '{}': surface projection {} between surface '{}' element {} "
-                         "and surface '{}' element {}",
-                         model_.surface_contacts[item.definition].name, contact::to_string(status),
-                         model_.surfaces[d.surface[item.pair.first]].name, element(item.pair.first),
-                         model_.surfaces[d.surface[item.pair.second]].name,
-                         element(item.pair.second));
-    }
+  // jumped (the first in the work list's order, found by summarise).
+  if (scan_.first_vetoed >= 0) {
+    const Work& item = work_[static_cast<std::size_t>(scan_.first_vetoed)];
+    const Definition& d = *definitions_[item.definition];
+    const auto element = [&](int s) {
+      return model_.surfaces[d.surface[s]].elements[d.position[s]] + 1;
+    };
+    return fmt::format(
+        "contact '{}': surface projection {} between surface '{}' element {} "
+        "and surface '{}' element {}",
+        model_.surface_contacts[item.definition].name, contact::to_string(item.result.status),
+        model_.surfaces[d.surface[item.pair.first]].name, element(item.pair.first),
+        model_.surfaces[d.surface[item.pair.second]].name, element(item.pair.second));
   }
   return {};
 }
@@ -357,12 +351,25 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
 void SurfaceContactSet::summarise() {
   summary_ = {};
   summary_.candidates = static_cast<int>(work_.size());
-  summary_.min_gap = std::numeric_limits<double>::infinity();
-  double active_share = 0;
-  for (const Work& w : work_) {
-    const auto& r = w.result;
+  // In parallel (scan_work); the active items are then summed here in their order.
+  scan_work(work_.size(), scan_blocks_, scan_, [&](std::size_t w) {
+    const Work& item = work_[w];
+    const contact::SurfaceContactResult& r = item.result;
+    const bool was_active = item.warm >= 0 && committed_[item.warm].active;
+    ItemScan out;
     if (r.status == contact::ProjectionStatus::Converged)
-      summary_.min_gap = std::min(summary_.min_gap, r.gap);
+      out.gap = r.gap;
+    out.vetoes = (r.status == contact::ProjectionStatus::NotConverged ||
+                  r.status == contact::ProjectionStatus::Jumped) &&
+                 (was_active || r.active);
+    out.listed = r.active || (any_friction_ && w < friction_.size() && friction_[w].active);
+    return out;
+  });
+  summary_.min_gap = scan_.min_gap;
+  double active_share = 0;
+  for (const int k : scan_.listed) {
+    const Work& w = work_[static_cast<std::size_t>(k)];
+    const auto& r = w.result;
     if (!r.active)
       continue;
     summary_.active_set =
@@ -383,7 +390,10 @@ void SurfaceContactSet::summarise() {
   summary_.dissipation = dissipated_;
   if (!any_friction_)
     return;
-  for (std::size_t k = 0; k < friction_.size(); ++k) {
+  for (const int listed : scan_.listed) {
+    const std::size_t k = static_cast<std::size_t>(listed);
+    if (k >= friction_.size())
+      break;
     const contact::SurfaceFrictionResult& f = friction_[k];
     if (!f.active)
       continue;

@@ -124,7 +124,7 @@ private:
   /// Shares one contact between two pairs whose points lie close together on either side of a
   /// node (a valley between two elements' cylinders).
   void share_split_contacts();
-  /// summary_ from work_ (and the friction results).
+  /// summary_ from work_ (and the friction results), and scan_ (the first vetoed item).
   void summarise();
   /// The cylinder of segment s of definition d at the state's configuration.
   contact::SuperEllipticalCylinder cylinder(const Definition& d, int s, const State& state) const;
@@ -167,6 +167,10 @@ private:
   /// Whether this process projects pair p of definition d (set_owned, pair_owned_by).
   bool owns(const Definition& d, const broadphase::CandidatePair& p) const;
   ContactSummary summary_;
+  /// summarise()'s pass (scan_work): the smallest gap, the first vetoed item (project's veto)
+  /// and the items that add to the summary; and its blocks, kept for their capacity.
+  WorkScan scan_;
+  std::vector<WorkScan> scan_blocks_;
 };
 
 } // namespace yarnsim

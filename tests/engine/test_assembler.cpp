@@ -240,6 +240,48 @@ TEST(ContactAssembly, PairsAddedOverTheirNodesGiveTheBitsOfOneLoopOverThePairs) 
   }
 }
 
+TEST(ContactSummary, TheParallelScanOfTheWorkListIsOneSerialPass) {
+  // scan_work (engine/contact/contact_set.hpp) takes a set's work items in parallel blocks for
+  // its summary and veto: it must give what one serial pass gives (the smallest gap, the first
+  // vetoing item, the listed items in their order) on any thread count, so that the summary's
+  // sums, taken over the listed items, keep their order. Sizes below, at and across the block
+  // (256), items that veto only late and only in one block, and none at all.
+  std::mt19937 random(11);
+  for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{255}, std::size_t{256},
+                              std::size_t{257}, std::size_t{5000}}) {
+    for (const double veto_rate : {0.0, 0.001, 0.3}) {
+      SCOPED_TRACE(testing::Message() << n << " items, veto rate " << veto_rate);
+      std::vector<ItemScan> items(n);
+      std::uniform_real_distribution<double> u(0, 1);
+      for (ItemScan& item : items) {
+        if (u(random) < 0.7)
+          item.gap = u(random) - 0.2; // converged in range, some penetrating
+        item.vetoes = u(random) < veto_rate;
+        item.listed = u(random) < 0.1;
+      }
+      WorkScan serial;
+      for (std::size_t w = 0; w < n; ++w) {
+        serial.min_gap = std::min(serial.min_gap, items[w].gap);
+        if (items[w].vetoes && serial.first_vetoed < 0)
+          serial.first_vetoed = static_cast<int>(w);
+        if (items[w].listed)
+          serial.listed.push_back(static_cast<int>(w));
+      }
+      for (const int threads : {1, 2, 4}) {
+        tbb::global_control control(tbb::global_control::max_allowed_parallelism, threads);
+        std::vector<WorkScan> blocks;
+        WorkScan scan;
+        scan.first_vetoed = 7; // left from an earlier pass: overwritten
+        scan.listed = {3, 1};
+        scan_work(n, blocks, scan, [&](std::size_t w) { return items[w]; });
+        EXPECT_EQ(scan.min_gap, serial.min_gap) << threads << " threads";
+        EXPECT_EQ(scan.first_vetoed, serial.first_vetoed) << threads << " threads";
+        EXPECT_EQ(scan.listed, serial.listed) << threads << " threads";
+      }
+    }
+  }
+}
+
 TEST(ContactAssembly, SlotsAreLookedUpAgainOnlyForNewPairsOrANewPattern) {
   // find_active_slots keeps the slots of the pairs it looked up (SlotCache) while the pattern
   // stays: a pair active again is not looked up again, a newly active one is, and a grown
