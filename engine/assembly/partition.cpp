@@ -2,17 +2,26 @@
 
 #include "engine/model/model.hpp"
 
+#include <cmath>
 #include <fmt/format.h>
 #include <numeric>
 #include <stdexcept>
 
 namespace yarnsim {
 
-std::vector<NodePartition> partition_all(const Model& model, int ranks) {
+std::vector<NodePartition> partition_all(const Model& model, int ranks,
+                                         std::span<const double> load) {
   if (ranks < 1)
     throw std::invalid_argument(
         fmt::format("partition: expected at least one process, found {}", ranks));
   const int n = static_cast<int>(model.nodes.size());
+  if (!load.empty() && load.size() != static_cast<std::size_t>(n))
+    throw std::invalid_argument(fmt::format(
+        "partition: expected a load for each of the {} nodes, found {}", n, load.size()));
+  for (std::size_t i = 0; i < load.size(); ++i)
+    if (!(std::isfinite(load[i]) && load[i] >= 0))
+      throw std::invalid_argument(
+          fmt::format("partition: expected a finite load >= 0, found {} at node {}", load[i], i));
   // The bodies: nodes joined by elements (union-find, each root the smallest node).
   std::vector<int> root(static_cast<std::size_t>(n));
   std::iota(root.begin(), root.end(), 0);
@@ -21,10 +30,13 @@ std::vector<NodePartition> partition_all(const Model& model, int ranks) {
       i = root[i] = root[root[i]];
     return i;
   };
-  // Elements per first node, for the balance.
-  std::vector<long long> first_of(static_cast<std::size_t>(n) + 1, 0);
+  // The work of the nodes before each node (elements per first node, and the loads), for the
+  // balance.
+  std::vector<double> first_of(static_cast<std::size_t>(n) + 1, 0.0);
+  for (std::size_t i = 0; i < load.size(); ++i)
+    first_of[i + 1] += load[i];
   for (const auto& e : model.elements) {
-    ++first_of[static_cast<std::size_t>(e.nodes[0]) + 1];
+    first_of[static_cast<std::size_t>(e.nodes[0]) + 1] += 1.0;
     for (int a : e.nodes) {
       const int ra = find(a), rb = find(e.nodes[0]);
       if (ra != rb)
@@ -32,7 +44,7 @@ std::vector<NodePartition> partition_all(const Model& model, int ranks) {
     }
   }
   for (int i = 0; i < n; ++i)
-    first_of[i + 1] += first_of[i]; // elements whose first node is below i + 1
+    first_of[i + 1] += first_of[i]; // the work of the nodes below i + 1
   // A cut at node c splits no body when every node before c is in a body whose nodes all lie
   // before c: c starts a new body and no earlier body reaches past it.
   std::vector<int> last_of_body(static_cast<std::size_t>(n), -1);
@@ -45,16 +57,23 @@ std::vector<NodePartition> partition_all(const Model& model, int ranks) {
     reach = std::max(reach, last_of_body[find(c)]);
     clean[c + 1] = reach == c;
   }
-  const long long total = first_of[n];
+  const double total = first_of[n];
   std::vector<int> cut(static_cast<std::size_t>(ranks) + 1, n);
   cut[0] = 0;
   for (int r = 1; r < ranks; ++r) {
-    const long long target = total * r / ranks;
-    int c = static_cast<int>(std::lower_bound(first_of.begin(), first_of.end(), target) -
-                             first_of.begin());
-    c = std::clamp(c, cut[r - 1], n);
+    const double target = std::floor(total * r / ranks); // elements alone: as integers
+    const int at = static_cast<int>(std::lower_bound(first_of.begin(), first_of.end(), target) -
+                                    first_of.begin());
+    // The clean cut nearest the target: the first at or after it, or the last before it where
+    // that is nearer (a heavy yarn then goes to the next process rather than this one).
+    int c = std::clamp(at, cut[r - 1], n);
     while (c < n && !clean[c])
       ++c;
+    int before = std::clamp(at, cut[r - 1], n);
+    while (before > cut[r - 1] && !clean[before])
+      --before;
+    if (clean[before] && target - first_of[before] < first_of[c] - target)
+      c = before;
     cut[r] = c;
   }
   std::vector<NodePartition> out(static_cast<std::size_t>(ranks));

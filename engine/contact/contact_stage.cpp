@@ -72,6 +72,11 @@ int ContactStage::candidates_version() const {
   return version;
 }
 
+void ContactStage::add_candidate_loads(std::vector<double>& per_node, double weight) const {
+  for (const auto& set : sets_)
+    set->add_candidate_loads(per_node, weight);
+}
+
 std::vector<ContactCoupling> ContactStage::couplings() const {
   std::vector<ContactCoupling> out;
   for (const auto& set : sets_) {

@@ -42,6 +42,8 @@ public:
   /// Broad and narrow phase; returns as project().
   std::string evaluate(const State& state, bool want_tangent);
   int candidates_version() const;
+  /// Every set's ContactSet::add_candidate_loads.
+  void add_candidate_loads(std::vector<double>& per_node, double weight) const;
   std::vector<ContactCoupling> couplings() const;
   void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
   void commit();

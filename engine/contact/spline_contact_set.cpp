@@ -189,6 +189,17 @@ bool SplineContactSet::owns(const Definition& d, const broadphase::CandidatePair
   return pair_owned_by(*owned_, d.spline[p.first], d.spline[p.second], n[0], n[3]);
 }
 
+void SplineContactSet::add_candidate_loads(std::vector<double>& per_node, double weight) const {
+  for (const auto& definition : definitions_) {
+    const Definition& d = *definition;
+    for (const broadphase::CandidatePair& p : d.search->candidates()) {
+      const auto n = nodes_of(d, p);
+      const int owner = pair_owner_node(d.spline[p.first], d.spline[p.second], n[0], n[3]);
+      per_node[static_cast<std::size_t>(owner)] += weight;
+    }
+  }
+}
+
 bool SplineContactSet::update_candidates(const State& state) {
   const Eigen::Matrix3Xd& x = state.x;
   bool changed = (work_.empty() && candidates_version_ == 0) || rebuild_work_;

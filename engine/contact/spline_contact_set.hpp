@@ -51,6 +51,7 @@ public:
   }
   void clear_dissipation() override { dissipated_ = 0; }
   int candidates_version() const override { return candidates_version_; }
+  void add_candidate_loads(std::vector<double>& per_node, double weight) const override;
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;
   /// Translations only: the splines' control points carry no rotations.

@@ -148,6 +148,17 @@ bool SurfaceContactSet::owns(const Definition& d, const broadphase::CandidatePai
   return pair_owned_by(*owned_, d.surface[p.first], d.surface[p.second], n[0], n[2]);
 }
 
+void SurfaceContactSet::add_candidate_loads(std::vector<double>& per_node, double weight) const {
+  for (const auto& definition : definitions_) {
+    const Definition& d = *definition;
+    for (const broadphase::CandidatePair& p : d.search->candidates()) {
+      const auto n = nodes_of(d, p);
+      const int owner = pair_owner_node(d.surface[p.first], d.surface[p.second], n[0], n[2]);
+      per_node[static_cast<std::size_t>(owner)] += weight;
+    }
+  }
+}
+
 bool SurfaceContactSet::update_candidates(const State& state) {
   bool changed = (work_.empty() && candidates_version_ == 0) || rebuild_work_;
   rebuild_work_ = false;

@@ -43,6 +43,7 @@ public:
   bool reads_triads() const override { return true; }
   void clear_dissipation() override { dissipated_ = 0; }
   int candidates_version() const override { return candidates_version_; }
+  void add_candidate_loads(std::vector<double>& per_node, double weight) const override;
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;
   void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;

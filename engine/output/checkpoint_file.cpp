@@ -530,6 +530,8 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
     h5::write_double_attribute(root, "energy_reference", c.energy_reference);
     h5::write_int_attribute(root, "total_iterations", c.total_iterations);
     write_status(root, "explicit_", c.explicit_status);
+    if (!c.partition_cuts.empty())
+      write_table(root, "partition_cuts", c.partition_cuts, 1);
 
     h5::Handle out = h5::create_group(root, "outputs");
     for (const auto& [name, rows] : outputs.csv_rows)
@@ -635,6 +637,9 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
   c.energy_reference = h5::read_double_attribute(root, "energy_reference");
   c.total_iterations = h5::read_int_attribute(root, "total_iterations");
   c.explicit_status = read_status(root, "explicit_");
+  // Written over several processes since the partition is balanced (absent: none).
+  if (h5::exists(root, "partition_cuts"))
+    c.partition_cuts = h5::read_ints(root, "partition_cuts");
 
   h5::Handle state = h5::open_group(root, "state");
   const hid_t g = state.id();

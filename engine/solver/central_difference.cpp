@@ -597,7 +597,7 @@ CentralDifference::CentralDifference(Simulation& sim, int step_index)
   if (sim.partition_) {
     first_ = sim.partition_->first;
     last_ = sim.partition_->last;
-    shares_ = partition_all(sim.model_, distributed::size());
+    shares_ = sim.shares_;
     counts_.resize(shares_.size());
     offsets_.resize(shares_.size());
     triads_each_increment_ = sim.contact_ && sim.contact_->reads_triads();

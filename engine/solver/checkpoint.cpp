@@ -6,6 +6,7 @@
 // an explicit step, the central-difference integrator.
 
 #include "engine/solver/checkpoint.hpp"
+#include "engine/solver/distributed.hpp"
 
 #include <fmt/format.h>
 #include <stdexcept>
@@ -40,6 +41,10 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.secant_step = secant_step_;
   c.secant_reach = secant_reach_;
   c.explicit_status = explicit_status_;
+  for (const NodePartition& p : shares_)
+    c.partition_cuts.push_back(p.first);
+  if (!shares_.empty())
+    c.partition_cuts.push_back(shares_.back().last);
   if (explicit_)
     c.explicit_progress = explicit_progress();
   // Over several processes, the processes' histories gathered at the last commit.
@@ -121,6 +126,25 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   secant_step_ = from.secant_step;
   secant_reach_ = from.secant_reach;
   explicit_status_ = from.explicit_status;
+  // The partition the run had at its last commit, where it ran on as many processes (on
+  // another number the elements' cuts stand, and rebalance decides at the run's start).
+  const std::vector<int>& cuts = from.partition_cuts;
+  if (partition_ && cuts.size() == shares_.size() + 1) {
+    std::vector<NodePartition> shares;
+    for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+      if (!(cuts[k] >= 0 && cuts[k] <= cuts[k + 1] && cuts[k + 1] <= n))
+        throw std::invalid_argument(
+            fmt::format("checkpoint: the partition's cuts are not ascending nodes in [0, {}]", n));
+      shares.push_back({cuts[k], cuts[k + 1]});
+    }
+    if (shares.front().first != 0 || shares.back().last != n)
+      throw std::invalid_argument(
+          fmt::format("checkpoint: the partition's cuts do not span the {} nodes", n));
+    shares_ = std::move(shares);
+    partition_ = shares_[static_cast<std::size_t>(distributed::rank())];
+    if (contact_)
+      contact_->set_partition(partition_);
+  }
   if (from.explicit_progress)
     resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);
   if (contact_)

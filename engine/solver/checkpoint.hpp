@@ -61,6 +61,10 @@ struct SimulationCheckpoint {
   /// (Simulation::secant_reach_); +infinity: not held.
   double secant_reach = std::numeric_limits<double>::infinity();
   ExplicitStatus explicit_status;
+  /// Over several processes: every process's first node, then the node count (the cuts of
+  /// Simulation::rebalance); empty in a one-process run (and read from a checkpoint written
+  /// before the partition was balanced: the elements' cuts).
+  std::vector<int> partition_cuts;
   std::optional<ExplicitProgress> explicit_progress; ///< when stopped inside an explicit step
   std::optional<SplineContactSet::Snapshot> contact; ///< when the model has spline contact
   /// When the model has surface contact.

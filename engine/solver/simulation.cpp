@@ -88,8 +88,10 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
   assembler_ = std::make_unique<Assembler>(model, constrained);
   // Over several processes each assembles its share of the elements, the pairs and the nodes'
   // terms, and evaluate() sums them (partition.hpp).
-  if (distributed::size() > 1)
-    partition_ = partition_nodes(model, distributed::rank(), distributed::size());
+  if (distributed::size() > 1) {
+    shares_ = partition_all(model, distributed::size());
+    partition_ = shares_[static_cast<std::size_t>(distributed::rank())];
+  }
   LinearSolverKind kind = options.linear_solver;
   const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
                                    [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
@@ -987,6 +989,52 @@ void Simulation::gather_contact() {
   }
 }
 
+std::string Simulation::rebalance() {
+  if (!partition_ || !contact_ || contact_->candidates_version() == balanced_version_)
+    return {};
+  balanced_version_ = contact_->candidates_version();
+  const int n = state_.n_nodes();
+  std::vector<double> load(static_cast<std::size_t>(n), 0.0);
+  contact_->add_candidate_loads(load, kCandidateLoad);
+  std::vector<NodePartition> shares = partition_all(model_, distributed::size(), load);
+  if (shares == shares_)
+    return {};
+  // Each process's work (elements by first node, and candidates), the largest over the mean.
+  std::vector<double> work_of_node = load;
+  for (const BeamElement& e : model_.elements)
+    work_of_node[static_cast<std::size_t>(e.nodes[0])] += 1.0;
+  const auto imbalance = [&](const std::vector<NodePartition>& parts) {
+    double largest = 0, total = 0;
+    for (const NodePartition& p : parts) {
+      double w = 0;
+      for (int i = p.first; i < p.last; ++i)
+        w += work_of_node[static_cast<std::size_t>(i)];
+      largest = std::max(largest, w);
+      total += w;
+    }
+    return total > 0 ? largest * static_cast<double>(parts.size()) / total : 1.0;
+  };
+  // Moved where that lowers the largest share by a twentieth of the mean at least: a cut that
+  // the candidates' ebb and flow moves by a yarn each way would repartition at each change.
+  const double before = imbalance(shares_), after = imbalance(shares);
+  if (!(after <= before - kRebalanceGain))
+    return {};
+  shares_ = std::move(shares);
+  partition_ = shares_[static_cast<std::size_t>(distributed::rank())];
+  // Every process restores every pair's history, and keeps its own from the next search on.
+  contact_->set_partition(partition_);
+  if (gathered_spline_)
+    contact_->spline()->restore(*gathered_spline_);
+  if (gathered_surface_)
+    contact_->surface()->restore(*gathered_surface_);
+  share_contact_pairs();
+  own_couplings_.clear();
+  own_couplings_changed_ = true;
+  return fmt::format("the work over the {} processes balanced again for {} contact candidates: "
+                     "the largest share {:.2f} -> {:.2f} times the mean",
+                     shares_.size(), contact_->summary().candidates, before, after);
+}
+
 void Simulation::prune_couplings() {
   std::vector<ContactCoupling> mine = contact_->couplings();
   // Over several processes every process's pairs, so that the patterns stay the same.
@@ -1505,6 +1553,10 @@ std::string Simulation::off_end_text(const ContactSummary& s) const {
 
 void Simulation::run(SimulationObserver* observer) {
   double t = state_.time;
+  // A run continued from a checkpoint is balanced for the candidates it restored, as the run it
+  // continues was after its last commit (a fresh run has none yet: the elements decide).
+  if (const std::string balanced = rebalance(); !balanced.empty() && observer)
+    observer->on_notice(*this, fmt::format("t = {:.6g} s: {}", t, balanced));
   // From the first step, or from where a checkpoint left off.
   for (; step_ < static_cast<int>(model_.steps.size()); ++step_, next_dt_ = 0) {
     const std::size_t s = step_;
@@ -1557,6 +1609,9 @@ void Simulation::run(SimulationObserver* observer) {
         continue;
       }
       commit(step, h, t + h);
+      if (const std::string balanced = rebalance(); !balanced.empty() && observer)
+        observer->on_notice(*this,
+                            fmt::format("step {}, t = {:.6g} s: {}", s + 1, t + h, balanced));
       if (contact_ && !frictionless_reported_ && observer && contact_->summary().frictionless > 0) {
         frictionless_reported_ = true;
         observer->on_notice(

@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <numeric>
 #include <random>
 #include <stdexcept>
 
@@ -399,6 +400,16 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
         r_sum += r;
         K_sum += K;
       }
+      // Each process is charged, in the partition's balance (add_candidate_loads), the
+      // candidates it projects: those its nodes own.
+      std::vector<double> load(static_cast<std::size_t>(n), 0.0);
+      whole->add_candidate_loads(load, 1.0);
+      for (std::size_t k = 0; k < parts.size(); ++k) {
+        double charged = 0;
+        for (int i = parts[k].first; i < parts[k].last; ++i)
+          charged += load[static_cast<std::size_t>(i)];
+        EXPECT_EQ(charged, summaries[k].candidates) << "process " << k;
+      }
       // Found once: every active pair on one process.
       const ContactSummary combined = combine_summaries(summaries);
       if (ranks == 2) {
@@ -422,6 +433,57 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
       EXPECT_LE((K_sum - K_one).cwiseAbs().maxCoeff(), 1e-12 * K_one.cwiseAbs().maxCoeff());
     }
   }
+}
+
+TEST(Partition, TheCutsBalanceTheElementsAndTheLoadOfTheNodes) {
+  // partition_all with a load per node (Simulation::rebalance: the contact candidates each node
+  // owns) cuts between whole yarns where the elements and the loads before the cut make
+  // rank / ranks of the whole. No load cuts as the elements alone; a load on the first yarns
+  // moves the cuts towards them; the largest share is then within a yarn's work of the mean,
+  // where the elements alone left it far above.
+  const Model m =
+      read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "biaxial-k1.toml");
+  const int n = static_cast<int>(m.nodes.size());
+  std::vector<double> load(static_cast<std::size_t>(n), 0.0);
+  for (const int ranks : {2, 3, 4})
+    EXPECT_EQ(partition_all(m, ranks, load), partition_all(m, ranks)) << ranks;
+  // The first two yarns' nodes carry 4 elements' worth each (a yarn's own work is its elements).
+  const std::vector<NodePartition> by_elements = partition_all(m, 3);
+  const int first_two = by_elements[0].last / 2; // rank 0 holds the first 4 of the 12 yarns
+  ASSERT_GT(first_two, 0);
+  for (int i = 0; i < first_two; ++i)
+    load[static_cast<std::size_t>(i)] = 4.0;
+  std::vector<double> work(static_cast<std::size_t>(n), 0.0);
+  for (const BeamElement& e : m.elements)
+    work[static_cast<std::size_t>(e.nodes[0])] += 1.0;
+  for (int i = 0; i < n; ++i)
+    work[static_cast<std::size_t>(i)] += load[static_cast<std::size_t>(i)];
+  const double total = std::accumulate(work.begin(), work.end(), 0.0);
+  const double yarn = static_cast<double>(m.elements.size()) / 12 + 4.0 * first_two / 2;
+  const auto largest = [&](const std::vector<NodePartition>& parts) {
+    double out = 0;
+    for (const NodePartition& p : parts)
+      out = std::max(out, std::accumulate(work.begin() + p.first, work.begin() + p.last, 0.0));
+    return out;
+  };
+  const std::vector<NodePartition> balanced = partition_all(m, 3, load);
+  EXPECT_LT(balanced[0].last, by_elements[0].last) << "the loaded yarns' process takes fewer";
+  EXPECT_LE(largest(balanced), total / 3 + yarn);
+  EXPECT_GT(largest(by_elements), total / 3 + yarn);
+  // Whole yarns still: no element split between processes.
+  for (const BeamElement& e : m.elements) {
+    int owner = 0;
+    while (!balanced[owner].owns(e.nodes[0]))
+      ++owner;
+    for (int a : e.nodes)
+      EXPECT_TRUE(balanced[owner].owns(a));
+  }
+  // Bad loads: a size other than the nodes', negative, not finite.
+  EXPECT_THROW(partition_all(m, 2, std::vector<double>(3, 0.0)), std::invalid_argument);
+  load[5] = -1;
+  EXPECT_THROW(partition_all(m, 2, load), std::invalid_argument);
+  load[5] = std::nan("");
+  EXPECT_THROW(partition_all(m, 2, load), std::invalid_argument);
 }
 
 } // namespace
