@@ -159,6 +159,19 @@ struct ItemScan {
   bool vetoes = false;
   bool listed = false;
 };
+/// The part of an item's scan (scan_work) its result decides alike in every set: its gap where
+/// its projection converged in range, and whether it vetoes the evaluation (its projection
+/// failed or jumped where the pair is active, or was at the last converged increment).
+template <class Result>
+ItemScan scan_result(const Result& r, bool was_active) {
+  ItemScan out;
+  if (r.status == contact::ProjectionStatus::Converged)
+    out.gap = r.gap;
+  out.vetoes = (r.status == contact::ProjectionStatus::NotConverged ||
+                r.status == contact::ProjectionStatus::Jumped) &&
+               (was_active || r.active);
+  return out;
+}
 template <class Scan>
 void scan_work(std::size_t n, std::vector<WorkScan>& blocks, WorkScan& out, Scan scan) {
   constexpr std::size_t kBlock = 256;

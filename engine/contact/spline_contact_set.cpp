@@ -949,12 +949,7 @@ void SplineContactSet::summarise() {
     const bool was_active = item.warm >= 0 &&
                             static_cast<std::size_t>(item.warm) < committed_.size() &&
                             committed_[static_cast<std::size_t>(item.warm)].active;
-    ItemScan out;
-    if (r.status == contact::ProjectionStatus::Converged)
-      out.gap = r.gap;
-    out.vetoes = (r.status == contact::ProjectionStatus::NotConverged ||
-                  r.status == contact::ProjectionStatus::Jumped) &&
-                 (was_active || r.active);
+    ItemScan out = scan_result(r, was_active);
     out.listed = r.active ||
                  (r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0 && was_active) ||
                  (any_friction_ && w < friction_.size() && friction_[w].active);

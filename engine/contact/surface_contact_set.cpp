@@ -367,12 +367,7 @@ void SurfaceContactSet::summarise() {
     const Work& item = work_[w];
     const contact::SurfaceContactResult& r = item.result;
     const bool was_active = item.warm >= 0 && committed_[item.warm].active;
-    ItemScan out;
-    if (r.status == contact::ProjectionStatus::Converged)
-      out.gap = r.gap;
-    out.vetoes = (r.status == contact::ProjectionStatus::NotConverged ||
-                  r.status == contact::ProjectionStatus::Jumped) &&
-                 (was_active || r.active);
+    ItemScan out = scan_result(r, was_active);
     out.listed = r.active || (any_friction_ && w < friction_.size() && friction_[w].active);
     return out;
   });
