@@ -283,8 +283,8 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   const auto project_item = [&](std::size_t w, const contact::ProjectionStart& start) {
     project_item_into(w, start, work_[w].result, any_friction_ ? &sensitivity_[w] : nullptr);
   };
-  // Each item also notes whether it may hand its point over (below): the serial pass then reads
-  // one byte per item, not the items' results (kilobytes apart).
+  // Each item also notes whether it may hand its point over (below): the hand-over pass then
+  // collects them from one byte per item, not from the items' results (kilobytes apart).
   may_hand_over_.assign(work_.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
                     [&](const tbb::blocked_range<std::size_t>& range) {

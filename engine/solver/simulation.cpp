@@ -1554,7 +1554,7 @@ std::string Simulation::off_end_text(const ContactSummary& s) const {
 void Simulation::run(SimulationObserver* observer) {
   double t = state_.time;
   // A run continued from a checkpoint is balanced for the candidates it restored, as the run it
-  // continues was after its last commit (a fresh run has none yet: the elements decide).
+  // continues was after its last commit; a fresh run for those of its first configuration.
   if (const std::string balanced = rebalance(); !balanced.empty() && observer)
     observer->on_notice(*this, fmt::format("t = {:.6g} s: {}", t, balanced));
   // From the first step, or from where a checkpoint left off.
