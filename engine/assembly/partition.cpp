@@ -8,6 +8,35 @@
 #include <stdexcept>
 
 namespace yarnsim {
+namespace {
+
+/// Each node's work: the elements whose first node it is, plus load[node] (checked).
+std::vector<double> node_work(const Model& model, std::span<const double> load) {
+  const std::size_t n = model.nodes.size();
+  if (!load.empty() && load.size() != n)
+    throw std::invalid_argument(fmt::format(
+        "partition: expected a load for each of the {} nodes, found {}", n, load.size()));
+  for (std::size_t i = 0; i < load.size(); ++i)
+    if (!(std::isfinite(load[i]) && load[i] >= 0))
+      throw std::invalid_argument(
+          fmt::format("partition: expected a finite load >= 0, found {} at node {}", load[i], i));
+  std::vector<double> work(load.begin(), load.end());
+  work.resize(n, 0.0);
+  for (const auto& e : model.elements)
+    work[static_cast<std::size_t>(e.nodes[0])] += 1.0;
+  return work;
+}
+
+} // namespace
+
+std::vector<double> share_work(const Model& model, std::span<const NodePartition> parts,
+                               std::span<const double> load) {
+  const std::vector<double> work = node_work(model, load);
+  std::vector<double> out;
+  for (const NodePartition& p : parts)
+    out.push_back(std::accumulate(work.begin() + p.first, work.begin() + p.last, 0.0));
+  return out;
+}
 
 std::vector<NodePartition> partition_all(const Model& model, int ranks,
                                          std::span<const double> load) {
@@ -15,13 +44,6 @@ std::vector<NodePartition> partition_all(const Model& model, int ranks,
     throw std::invalid_argument(
         fmt::format("partition: expected at least one process, found {}", ranks));
   const int n = static_cast<int>(model.nodes.size());
-  if (!load.empty() && load.size() != static_cast<std::size_t>(n))
-    throw std::invalid_argument(fmt::format(
-        "partition: expected a load for each of the {} nodes, found {}", n, load.size()));
-  for (std::size_t i = 0; i < load.size(); ++i)
-    if (!(std::isfinite(load[i]) && load[i] >= 0))
-      throw std::invalid_argument(
-          fmt::format("partition: expected a finite load >= 0, found {} at node {}", load[i], i));
   // The bodies: nodes joined by elements (union-find, each root the smallest node).
   std::vector<int> root(static_cast<std::size_t>(n));
   std::iota(root.begin(), root.end(), 0);
@@ -30,21 +52,17 @@ std::vector<NodePartition> partition_all(const Model& model, int ranks,
       i = root[i] = root[root[i]];
     return i;
   };
-  // The work of the nodes before each node (elements per first node, and the loads), for the
-  // balance.
+  // The work of the nodes before each node (node_work), for the balance.
+  const std::vector<double> work = node_work(model, load);
   std::vector<double> first_of(static_cast<std::size_t>(n) + 1, 0.0);
-  for (std::size_t i = 0; i < load.size(); ++i)
-    first_of[i + 1] += load[i];
+  std::partial_sum(work.begin(), work.end(), first_of.begin() + 1);
   for (const auto& e : model.elements) {
-    first_of[static_cast<std::size_t>(e.nodes[0]) + 1] += 1.0;
     for (int a : e.nodes) {
       const int ra = find(a), rb = find(e.nodes[0]);
       if (ra != rb)
         root[std::max(ra, rb)] = std::min(ra, rb);
     }
   }
-  for (int i = 0; i < n; ++i)
-    first_of[i + 1] += first_of[i]; // the work of the nodes below i + 1
   // A cut at node c splits no body when every node before c is in a body whose nodes all lie
   // before c: c starts a new body and no earlier body reaches past it.
   std::vector<int> last_of_body(static_cast<std::size_t>(n), -1);
@@ -72,7 +90,7 @@ std::vector<NodePartition> partition_all(const Model& model, int ranks,
     int before = std::clamp(at, cut[r - 1], n);
     while (before > cut[r - 1] && !clean[before])
       --before;
-    if (clean[before] && target - first_of[before] < first_of[c] - target)
+    if (target - first_of[before] < first_of[c] - target) // cut[r - 1] is clean
       c = before;
     cut[r] = c;
   }

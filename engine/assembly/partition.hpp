@@ -2,7 +2,7 @@
 // The share of the assembly one process takes when a run is spread over several (MPI): a
 // contiguous range of nodes, cut between whole yarns. The process assembles the beam elements
 // whose first node it owns and its nodes' inertia and loads, and projects and assembles the
-// contact pairs it owns (pair_owned_by, contact_set.hpp); the processes' residuals and matrices
+// contact pairs it owns (pair_owner_node, contact_set.hpp); the processes' residuals and matrices
 // are then summed (Simulation::evaluate), so every element and pair is assembled once.
 
 #include <span>
@@ -35,5 +35,10 @@ NodePartition partition_nodes(const Model& model, int rank, int ranks);
 /// not finite and >= 0.
 std::vector<NodePartition> partition_all(const Model& model, int ranks,
                                          std::span<const double> load = {});
+
+/// Each process's work under `parts` (in rank order), as partition_all counts it: the elements
+/// whose first node it owns plus the loads of its nodes. Throws as partition_all for a bad load.
+std::vector<double> share_work(const Model& model, std::span<const NodePartition> parts,
+                               std::span<const double> load = {});
 
 } // namespace yarnsim

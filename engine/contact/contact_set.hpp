@@ -291,16 +291,11 @@ void add_by_node(int n_nodes, const std::vector<std::array<int, N>>& nodes,
 /// The node whose process (a process of a run over several: partition.hpp) projects and
 /// assembles a contact pair between bodies a and b (indices into Model::splines or
 /// Model::surfaces, each whole on one process), given a node of each: a's where a + b is even,
-/// else b's; pair_owned_by: whether that is `part`'s. So every
-/// pair between two bodies has one owner (the hand-over of a point to a neighbouring pair and
-/// the split contacts near a node stay on it), and a weave's warp-weft crossings spread over the
-/// warp's and the weft's processes.
+/// else b's. So every pair between two bodies has one owner (the hand-over of a point to a
+/// neighbouring pair and the split contacts near a node stay on it), and a weave's warp-weft
+/// crossings spread over the warp's and the weft's processes.
 inline int pair_owner_node(int body_a, int body_b, int node_a, int node_b) {
   return (body_a + body_b) % 2 == 0 ? node_a : node_b;
-}
-inline bool pair_owned_by(const NodePartition& part, int body_a, int body_b, int node_a,
-                          int node_b) {
-  return part.owns(pair_owner_node(body_a, body_b, node_a, node_b));
 }
 
 /// Folds an active pair (definition, first, second) into ContactSummary::active_set.
@@ -377,7 +372,7 @@ public:
   virtual bool reads_triads() const { return false; }
   /// A process's share of a run over several (partition.hpp): from the next update_candidates
   /// on (also after a restore), the work list holds only the pairs `owned` holds
-  /// (pair_owned_by; none: every pair). The candidate search stays whole.
+  /// (pair_owner_node; none: every pair). The candidate search stays whole.
   void set_owned(const std::optional<NodePartition>& owned) {
     owned_ = owned;
     rebuild_work_ = true;
@@ -389,7 +384,7 @@ public:
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
   /// Adds `weight` to per_node[k] for every candidate pair of the whole search (not only this
-  /// process's share), k the node that owns the pair over processes (pair_owned_by): the
+  /// process's share), k the node that owns the pair over processes (pair_owner_node): the
   /// contact's work per node, for the partition's balance (Simulation::rebalance).
   virtual void add_candidate_loads(std::vector<double>& per_node, double weight) const = 0;
   /// Node groups of the pairs of the last projection that are active or within reach (a

@@ -182,22 +182,19 @@ contact::AllAngleOptions SplineContactSet::all_angle_of(const Definition& d, dou
   return all_angle;
 }
 
-bool SplineContactSet::owns(const Definition& d, const broadphase::CandidatePair& p) const {
-  if (!owned_)
-    return true;
+int SplineContactSet::owner_node(const Definition& d, const broadphase::CandidatePair& p) const {
   const auto n = nodes_of(d, p);
-  return pair_owned_by(*owned_, d.spline[p.first], d.spline[p.second], n[0], n[3]);
+  return pair_owner_node(d.spline[p.first], d.spline[p.second], n[0], n[3]);
+}
+
+bool SplineContactSet::owns(const Definition& d, const broadphase::CandidatePair& p) const {
+  return !owned_ || owned_->owns(owner_node(d, p));
 }
 
 void SplineContactSet::add_candidate_loads(std::vector<double>& per_node, double weight) const {
-  for (const auto& definition : definitions_) {
-    const Definition& d = *definition;
-    for (const broadphase::CandidatePair& p : d.search->candidates()) {
-      const auto n = nodes_of(d, p);
-      const int owner = pair_owner_node(d.spline[p.first], d.spline[p.second], n[0], n[3]);
-      per_node[static_cast<std::size_t>(owner)] += weight;
-    }
-  }
+  for (const auto& d : definitions_)
+    for (const broadphase::CandidatePair& p : d->search->candidates())
+      per_node[static_cast<std::size_t>(owner_node(*d, p))] += weight;
 }
 
 bool SplineContactSet::update_candidates(const State& state) {
@@ -943,15 +940,19 @@ void SplineContactSet::summarise() {
   summary_.candidates = static_cast<int>(work_.size());
   // In parallel (scan_work); the listed items (active, out of range where a point was, with
   // friction) are then summed here in their order.
+  // Active at the last converged increment; out of range there with the surfaces overlapping.
+  const auto was_active = [&](const Work& item) {
+    return item.warm >= 0 && static_cast<std::size_t>(item.warm) < committed_.size() &&
+           committed_[static_cast<std::size_t>(item.warm)].active;
+  };
+  const auto left_its_range = [&](const Work& item) {
+    const contact::SplineContactResult& r = item.result;
+    return r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0 && was_active(item);
+  };
   scan_work(work_.size(), scan_blocks_, scan_, [&](std::size_t w) {
     const Work& item = work_[w];
-    const contact::SplineContactResult& r = item.result;
-    const bool was_active = item.warm >= 0 &&
-                            static_cast<std::size_t>(item.warm) < committed_.size() &&
-                            committed_[static_cast<std::size_t>(item.warm)].active;
-    ItemScan out = scan_result(r, was_active);
-    out.listed = r.active ||
-                 (r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0 && was_active) ||
+    ItemScan out = scan_result(item.result, was_active(item));
+    out.listed = item.result.active || left_its_range(item) ||
                  (any_friction_ && w < friction_.size() && friction_[w].active);
     return out;
   });
@@ -959,9 +960,7 @@ void SplineContactSet::summarise() {
   for (const int k : scan_.listed) {
     const Work& w = work_[static_cast<std::size_t>(k)];
     const auto& r = w.result;
-    if (r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0 && w.warm >= 0 &&
-        static_cast<std::size_t>(w.warm) < committed_.size() &&
-        committed_[static_cast<std::size_t>(w.warm)].active) {
+    if (left_its_range(w)) {
       const Definition& d = *definitions_[w.definition];
       const bool past_a = past_curve_end(d, w.pair.first, r.xi_A);
       if (past_a || past_curve_end(d, w.pair.second, r.xi_B)) {

@@ -243,7 +243,9 @@ private:
   double time_ = 0; ///< s, of the configurations projected (the compaction's time)
   /// How the point friction's force reaches the positions: set_explicit_path.
   contact::FrictionForce friction_force_ = contact::FrictionForce::AtContactPoints;
-  /// Whether this process projects pair p of definition d (set_owned, pair_owned_by).
+  /// The node whose process projects pair p of definition d over several (pair_owner_node), and
+  /// whether that is this process (set_owned).
+  int owner_node(const Definition& d, const broadphase::CandidatePair& p) const;
   bool owns(const Definition& d, const broadphase::CandidatePair& p) const;
   ContactSummary summary_;
 };

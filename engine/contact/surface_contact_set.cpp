@@ -141,22 +141,19 @@ contact::SuperEllipticalCylinder SurfaceContactSet::cylinder(const Definition& d
   return {node(el.nodes[0]), node(el.nodes[2]), sections_[d.surface[s]], last, &previous};
 }
 
-bool SurfaceContactSet::owns(const Definition& d, const broadphase::CandidatePair& p) const {
-  if (!owned_)
-    return true;
+int SurfaceContactSet::owner_node(const Definition& d, const broadphase::CandidatePair& p) const {
   const auto n = nodes_of(d, p);
-  return pair_owned_by(*owned_, d.surface[p.first], d.surface[p.second], n[0], n[2]);
+  return pair_owner_node(d.surface[p.first], d.surface[p.second], n[0], n[2]);
+}
+
+bool SurfaceContactSet::owns(const Definition& d, const broadphase::CandidatePair& p) const {
+  return !owned_ || owned_->owns(owner_node(d, p));
 }
 
 void SurfaceContactSet::add_candidate_loads(std::vector<double>& per_node, double weight) const {
-  for (const auto& definition : definitions_) {
-    const Definition& d = *definition;
-    for (const broadphase::CandidatePair& p : d.search->candidates()) {
-      const auto n = nodes_of(d, p);
-      const int owner = pair_owner_node(d.surface[p.first], d.surface[p.second], n[0], n[2]);
-      per_node[static_cast<std::size_t>(owner)] += weight;
-    }
-  }
+  for (const auto& d : definitions_)
+    for (const broadphase::CandidatePair& p : d->search->candidates())
+      per_node[static_cast<std::size_t>(owner_node(*d, p))] += weight;
 }
 
 bool SurfaceContactSet::update_candidates(const State& state) {

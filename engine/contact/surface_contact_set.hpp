@@ -165,7 +165,9 @@ private:
   std::vector<contact::SurfaceTorsionalFrictionResult> torsion_;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   int candidates_version_ = 0;
-  /// Whether this process projects pair p of definition d (set_owned, pair_owned_by).
+  /// The node whose process projects pair p of definition d over several (pair_owner_node), and
+  /// whether that is this process (set_owned).
+  int owner_node(const Definition& d, const broadphase::CandidatePair& p) const;
   bool owns(const Definition& d, const broadphase::CandidatePair& p) const;
   ContactSummary summary_;
   /// summarise()'s pass (scan_work): the smallest gap, the first vetoed item (project's veto)

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/flow_graph.h>
@@ -999,20 +1000,11 @@ std::string Simulation::rebalance() {
   std::vector<NodePartition> shares = partition_all(model_, distributed::size(), load);
   if (shares == shares_)
     return {};
-  // Each process's work (elements by first node, and candidates), the largest over the mean.
-  std::vector<double> work_of_node = load;
-  for (const BeamElement& e : model_.elements)
-    work_of_node[static_cast<std::size_t>(e.nodes[0])] += 1.0;
+  // The largest process's work (elements and candidates) over the mean.
   const auto imbalance = [&](const std::vector<NodePartition>& parts) {
-    double largest = 0, total = 0;
-    for (const NodePartition& p : parts) {
-      double w = 0;
-      for (int i = p.first; i < p.last; ++i)
-        w += work_of_node[static_cast<std::size_t>(i)];
-      largest = std::max(largest, w);
-      total += w;
-    }
-    return total > 0 ? largest * static_cast<double>(parts.size()) / total : 1.0;
+    const std::vector<double> work = share_work(model_, parts, load);
+    const double total = std::accumulate(work.begin(), work.end(), 0.0);
+    return total > 0 ? *std::max_element(work.begin(), work.end()) * work.size() / total : 1.0;
   };
   // Moved where that lowers the largest share by a twentieth of the mean at least: a cut that
   // the candidates' ebb and flow moves by a yarn each way would repartition at each change.

@@ -333,6 +333,18 @@ TEST(ContactAssembly, SlotsAreLookedUpAgainOnlyForNewPairsOrANewPattern) {
   EXPECT_EQ(looked_up, 6);
 }
 
+/// Whole yarns: every element's nodes on one process of `parts`.
+void expect_whole_yarns(const Model& m, const std::vector<NodePartition>& parts) {
+  for (const BeamElement& e : m.elements) {
+    std::size_t owner = 0;
+    while (owner < parts.size() && !parts[owner].owns(e.nodes[0]))
+      ++owner;
+    ASSERT_LT(owner, parts.size()) << "node " << e.nodes[0] << " on no process";
+    for (int a : e.nodes)
+      EXPECT_TRUE(parts[owner].owns(a));
+  }
+}
+
 TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
   // A run over several processes (partition.hpp): each projects and assembles the contact pairs
   // whose first node it owns (ContactStage::set_partition) and the elements whose first node it
@@ -340,7 +352,7 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
   // (Simulation::evaluate). Over any number of processes those are the one-process ones, so no
   // pair is left out or found twice. On 2 processes the paper's fabric splits into its warp
   // (nodes of the first 6 yarns) and its weft, so every crossing pair couples nodes of both; the
-  // pairs spread over the two about evenly (pair_owned_by).
+  // pairs spread over the two about evenly (pair_owner_node).
   for (const char* deck : {"biaxial-k1.toml", "biaxial-surface-k1.toml"}) {
     SCOPED_TRACE(deck);
     Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / deck);
@@ -376,14 +388,7 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
       if (ranks == 2) {
         EXPECT_EQ(parts[0].last, n / 2); // the warp's 6 yarns, then the weft's
       }
-      // Whole yarns: every element's nodes on one process.
-      for (const auto& e : m.elements) {
-        int owner = 0;
-        while (!parts[owner].owns(e.nodes[0]))
-          ++owner;
-        for (int a : e.nodes)
-          EXPECT_TRUE(parts[owner].owns(a));
-      }
+      expect_whole_yarns(m, parts);
       Eigen::VectorXd r_sum = Eigen::VectorXd::Zero(6 * n),
                       K_sum = Eigen::VectorXd::Zero(K_one.size());
       std::vector<ContactSummary> summaries;
@@ -470,14 +475,11 @@ TEST(Partition, TheCutsBalanceTheElementsAndTheLoadOfTheNodes) {
   EXPECT_LT(balanced[0].last, by_elements[0].last) << "the loaded yarns' process takes fewer";
   EXPECT_LE(largest(balanced), total / 3 + yarn);
   EXPECT_GT(largest(by_elements), total / 3 + yarn);
-  // Whole yarns still: no element split between processes.
-  for (const BeamElement& e : m.elements) {
-    int owner = 0;
-    while (!balanced[owner].owns(e.nodes[0]))
-      ++owner;
-    for (int a : e.nodes)
-      EXPECT_TRUE(balanced[owner].owns(a));
-  }
+  expect_whole_yarns(m, balanced);
+  // share_work counts each process's work as this test does.
+  const std::vector<double> shares = share_work(m, balanced, load);
+  ASSERT_EQ(shares.size(), 3u);
+  EXPECT_EQ(*std::max_element(shares.begin(), shares.end()), largest(balanced));
   // Bad loads: a size other than the nodes', negative, not finite.
   EXPECT_THROW(partition_all(m, 2, std::vector<double>(3, 0.0)), std::invalid_argument);
   load[5] = -1;
