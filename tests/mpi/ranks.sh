@@ -164,7 +164,7 @@ mpi 2 run explicit-then-dynamic.toml -o explicit-then-dynamic-np2 -q > explicit-
 # cross it; over 3 processes the largest share of the work (elements and candidates) reaches
 # 1.10 times the mean by t = 0.98 s (increment 98), where the cuts move (1.10 -> 1.05: the note
 # says so). The results stay within 1e-9 of one process's (two identical 3-process runs differ
-# by 3e-10 in a contact force at increment 80, before the move: MUMPS's sums over 3 processes),
+# by up to 4.7e-10 in a contact force at increment 80, before the move: MUMPS over 3 processes),
 # also where the run stops after the move and is restarted from its checkpoint, which holds the
 # cuts.
 cp "$repo/examples/bias-extension-twintex.toml" bias.toml
