@@ -79,10 +79,14 @@ void for_each_block_entry(const std::vector<int>& equation, const int* nodes, in
 
 } // namespace
 
-Assembler::Assembler(const Model& model, const std::vector<char>& constrained)
-    : n_nodes_(static_cast<int>(model.nodes.size())) {
+Assembler::Assembler(const Model& model, const std::vector<char>& constrained,
+                     std::optional<NodePartition> share)
+    : n_nodes_(static_cast<int>(model.nodes.size())), share_(share) {
   if (static_cast<int>(constrained.size()) != kDofsPerNode * n_nodes_)
     throw std::invalid_argument("Assembler: constraint mask has the wrong size");
+  if (share_ && (share_->first < 0 || share_->last < share_->first || share_->last > n_nodes_))
+    throw std::invalid_argument(fmt::format("Assembler: a share of nodes [{}, {}) of a model of {}",
+                                            share_->first, share_->last, n_nodes_));
   equation_.assign(constrained.size(), -1);
   for (std::size_t d = 0; d < constrained.size(); ++d)
     if (!constrained[d])
@@ -112,11 +116,14 @@ void Assembler::build_pattern(bool keep_values) {
   // coupling's 6 nodes (translations, or all six DOFs), free equations only. Bucketed by column
   // (a counting pass, then a filling pass) and sorted and deduplicated column by column: a global
   // sort of the (column, row) pairs took 7.5 % of the paper's k = 1 run (docs/performance.md).
+  // With a share, only its elements and nodes.
   auto for_each_entry = [&](auto&& visit) {
-    for (const auto& c : connectivity_)
-      for_each_block_entry(equation_, c.data(), 3, 6, visit);
+    for (std::size_t e = 0; e < connectivity_.size(); ++e)
+      if (holds_element(static_cast<int>(e)))
+        for_each_block_entry(equation_, connectivity_[e].data(), 3, 6, visit);
     for (int n = 0; n < n_nodes_; ++n)
-      for_each_block_entry(equation_, &n, 1, 6, visit);
+      if (node_slot_index(n) >= 0)
+        for_each_block_entry(equation_, &n, 1, 6, visit);
     for (const auto& c : couplings_)
       for_each_block_entry(equation_, c.nodes.data(), 6, c.rotations ? 6 : 3, visit);
   };
@@ -162,18 +169,40 @@ void Assembler::build_pattern(bool keep_values) {
   }
 
   // Column-major like ElementMatrix, so the scatter reads both in memory order.
-  element_slots_.resize(connectivity_.size());
-  for (std::size_t e = 0; e < connectivity_.size(); ++e)
+  element_slot_.assign(connectivity_.size(), -1);
+  element_slots_.clear();
+  for (std::size_t e = 0; e < connectivity_.size(); ++e) {
+    if (!holds_element(static_cast<int>(e)))
+      continue;
+    element_slot_[e] = static_cast<int>(element_slots_.size());
+    auto& slots = element_slots_.emplace_back();
     for (int j = 0; j < 18; ++j)
       for (int i = 0; i < 18; ++i)
-        element_slots_[e][18 * j + i] =
-            slot_of(matrix_, equation_[6 * connectivity_[e][i / 6] + i % 6],
-                    equation_[6 * connectivity_[e][j / 6] + j % 6]);
-  node_slots_.resize(n_nodes_);
-  for (int n = 0; n < n_nodes_; ++n)
+        slots[18 * j + i] = slot_of(matrix_, equation_[6 * connectivity_[e][i / 6] + i % 6],
+                                    equation_[6 * connectivity_[e][j / 6] + j % 6]);
+  }
+  node_slots_.resize(share_ ? static_cast<std::size_t>(share_->last - share_->first)
+                            : static_cast<std::size_t>(n_nodes_));
+  for (int n = 0; n < n_nodes_; ++n) {
+    const int k = node_slot_index(n);
+    if (k < 0)
+      continue;
     for (int i = 0; i < 6; ++i)
       for (int j = 0; j < 6; ++j)
-        node_slots_[n][6 * i + j] = slot_of(matrix_, equation_[6 * n + i], equation_[6 * n + j]);
+        node_slots_[static_cast<std::size_t>(k)][6 * i + j] =
+            slot_of(matrix_, equation_[6 * n + i], equation_[6 * n + j]);
+  }
+}
+
+void Assembler::set_share(const NodePartition& share) {
+  if (!share_)
+    throw std::logic_error("Assembler::set_share: built for the whole pattern");
+  if (share.first < 0 || share.last < share.first || share.last > n_nodes_)
+    throw std::invalid_argument(fmt::format("Assembler: a share of nodes [{}, {}) of a model of {}",
+                                            share.first, share.last, n_nodes_));
+  share_ = share;
+  couplings_.clear();
+  build_pattern();
 }
 
 void Assembler::zero_matrix() {
@@ -203,6 +232,13 @@ void Assembler::add_beams(const State& state, Eigen::VectorXd& residual, bool wa
   const bool need_K = want_tangent || damped;
   double* values = matrix_.valuePtr();
   const double scale = 1.0 + (damped ? damping.b * damping.a4 : 0.0);
+  // A pattern of a share holds only its elements: they are the ones assembled.
+  if (share_ && owned && !(*owned == *share_))
+    throw std::logic_error(fmt::format(
+        "Assembler::add_beams: the elements of nodes [{}, {}) asked of a pattern of [{}, {})",
+        owned->first, owned->last, share_->first, share_->last));
+  if (share_)
+    owned = &*share_;
   for (const std::vector<int>& colour : colours_) {
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, colour.size(), 32),
@@ -233,7 +269,7 @@ void Assembler::add_beams(const State& state, Eigen::VectorXd& residual, bool wa
               residual.segment<6>(6 * connectivity_[e][i]) += f.segment<6>(6 * i);
             if (!want_tangent)
               continue;
-            const int* slots = element_slots_[e].data();
+            const int* slots = element_slots_[static_cast<std::size_t>(element_slot_[e])].data();
             const double* Kv = K.data();
             for (int ij = 0; ij < 18 * 18; ++ij) {
               const int s = slots[ij];
@@ -248,9 +284,14 @@ void Assembler::add_beams(const State& state, Eigen::VectorXd& residual, bool wa
 void Assembler::add_node_block(int node, int row_offset, int col_offset,
                                const Eigen::Matrix3d& block) {
   double* values = matrix_.valuePtr();
+  const int k = node_slot_index(node);
+  if (k < 0)
+    throw std::logic_error(fmt::format("Assembler::add_node_block: node {} is not in the share "
+                                       "[{}, {}) the pattern holds",
+                                       node, share_->first, share_->last));
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
-      const int s = node_slots_[node][6 * (row_offset + i) + col_offset + j];
+      const int s = node_slots_[static_cast<std::size_t>(k)][6 * (row_offset + i) + col_offset + j];
       if (s >= 0)
         values[s] += block(i, j);
     }
@@ -362,17 +403,23 @@ bool Assembler::grow_pattern(const std::vector<ContactCoupling>& added) {
 
 std::vector<char> Assembler::own_entries(const NodePartition& owned,
                                          const std::vector<ContactCoupling>& couplings) const {
+  if (share_ && !(owned == *share_))
+    throw std::logic_error(fmt::format(
+        "Assembler::own_entries: the entries of nodes [{}, {}) asked of a pattern of [{}, {})",
+        owned.first, owned.last, share_->first, share_->last));
   std::vector<char> own(static_cast<std::size_t>(matrix_.nonZeros()), 0);
   const auto mark = [&own](const int* slots, int n) {
     for (int k = 0; k < n; ++k)
       if (slots[k] >= 0)
         own[static_cast<std::size_t>(slots[k])] = 1;
   };
-  for (std::size_t e = 0; e < element_slots_.size(); ++e)
-    if (owned.owns(connectivity_[e][0]))
-      mark(element_slots_[e].data(), static_cast<int>(element_slots_[e].size()));
+  for (std::size_t e = 0; e < connectivity_.size(); ++e)
+    if (owned.owns(connectivity_[e][0])) {
+      const auto& slots = element_slots_[static_cast<std::size_t>(element_slot_[e])];
+      mark(slots.data(), static_cast<int>(slots.size()));
+    }
   for (int i = owned.first; i < owned.last; ++i)
-    mark(node_slots_[static_cast<std::size_t>(i)].data(), 36);
+    mark(node_slots_[static_cast<std::size_t>(node_slot_index(i))].data(), 36);
   std::array<int, 24 * 24> slots;
   for (const ContactCoupling& c : couplings) {
     if (c.rotations) {

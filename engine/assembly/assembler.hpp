@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace yarnsim {
@@ -38,8 +39,16 @@ struct ContactCoupling {
 
 class Assembler {
 public:
-  /// constrained: per global DOF (6 n_nodes), true when its increment is prescribed.
-  Assembler(const Model& model, const std::vector<char>& constrained);
+  /// constrained: per global DOF (6 n_nodes), true when its increment is prescribed. With
+  /// `share` (one process's nodes in a run over several whose solver sums the processes' own
+  /// entries, LinearSolver::sums_partial_tangents), the pattern holds only what that process
+  /// assembles: the blocks of the elements whose first node it owns, of its nodes and of the
+  /// contact couplings it is given; the element and node slots are kept for those alone. The
+  /// matrix keeps the whole system's size and numbering, so the memory of the pattern and of
+  /// the slots is the share's, not the model's (docs/performance.md, "A tangent pattern per
+  /// process"). Without it, the whole pattern.
+  Assembler(const Model& model, const std::vector<char>& constrained,
+            std::optional<NodePartition> share = std::nullopt);
 
   int n_nodes() const { return n_nodes_; }
   int n_equations() const { return n_equations_; }
@@ -48,6 +57,13 @@ public:
   const std::vector<int>& equations() const { return equation_; }
   const std::vector<BeamReference>& references() const { return reference_; }
   const std::vector<std::vector<int>>& colours() const { return colours_; }
+
+  /// The process's share the pattern is limited to (constructor), or none: the whole pattern.
+  const std::optional<NodePartition>& share() const { return share_; }
+  /// Limits the pattern to another share (a run whose cuts moved: Simulation::rebalance): the
+  /// pattern is built again for its elements and nodes with no contact coupling, the matrix
+  /// zero. Throws std::logic_error where the Assembler was built without a share.
+  void set_share(const NodePartition& share);
 
   /// The tangent over the free equations with the fixed pattern; setZero() keeps the pattern.
   SparseMatrix& matrix() { return matrix_; }
@@ -110,6 +126,7 @@ public:
   /// The matrix entries one process of a run over several may write (partition.hpp): those of
   /// the elements whose first node `owned` holds, of its nodes' blocks (inertia, loads) and of
   /// the blocks of `couplings` (its contact pairs'); 1 per entry of matrix().valuePtr(), else 0.
+  /// With a share (constructor), `owned` must be it.
   std::vector<char> own_entries(const NodePartition& owned,
                                 const std::vector<ContactCoupling>& couplings) const;
 
@@ -124,7 +141,15 @@ private:
   /// every entry already).
   bool grow_pattern(const std::vector<ContactCoupling>& added);
 
+  /// The elements a pattern holds: those whose first node the share owns (all without one).
+  bool holds_element(int e) const { return !share_ || share_->owns(connectivity_[e][0]); }
+  /// The slots' index of node n (n less the share's first node), -1 when the share lacks it.
+  int node_slot_index(int n) const {
+    return !share_ ? n : share_->owns(n) ? n - share_->first : -1;
+  }
+
   int n_nodes_ = 0;
+  std::optional<NodePartition> share_; ///< see share()
   int pattern_version_ = 0;
   std::uint64_t pattern_id_ = 0;
   std::vector<ContactCoupling> couplings_; ///< see couplings()
@@ -138,9 +163,11 @@ private:
   /// each of its entries went.
   SparseMatrix spare_;
   std::vector<int> moved_;
-  std::vector<std::array<int, 18 * 18>>
-      element_slots_;                           ///< value index of (i, j) at 18 j + i, or -1
-  std::vector<std::array<int, 36>> node_slots_; ///< value index per node (i, j)
+  /// Per element of the pattern (holds_element), in element order: value index of (i, j) at
+  /// 18 j + i, or -1; element_slot_[e] is element e's row, -1 for those the pattern lacks.
+  std::vector<std::array<int, 18 * 18>> element_slots_;
+  std::vector<int> element_slot_;
+  std::vector<std::array<int, 36>> node_slots_; ///< value index per node (i, j): node_slot_index
 };
 
 } // namespace yarnsim

@@ -8,6 +8,7 @@
 #include "engine/solver/checkpoint.hpp"
 #include "engine/solver/distributed.hpp"
 
+#include <algorithm>
 #include <fmt/format.h>
 #include <stdexcept>
 
@@ -57,7 +58,8 @@ SimulationCheckpoint Simulation::checkpoint() const {
     c.contact = gathered ? *gathered_spline_ : contact_->spline()->snapshot();
   if (contact_ && contact_->surface())
     c.surface_contact = gathered ? *gathered_surface_ : contact_->surface()->snapshot();
-  c.pattern_groups = assembler_->couplings();
+  // Each process's pattern of its share holds its own couplings: the checkpoint holds them all.
+  c.pattern_groups = assembler_->share() ? gathered_couplings_ : assembler_->couplings();
   c.ordering = solver_->ordering();
   return c;
 }
@@ -144,6 +146,8 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
     partition_ = shares_[static_cast<std::size_t>(distributed::rank())];
     if (contact_)
       contact_->set_partition(partition_);
+    if (assembler_->share())
+      assembler_->set_share(*partition_);
   }
   if (from.explicit_progress)
     resume_explicit_ = std::make_unique<ExplicitProgress>(*from.explicit_progress);
@@ -163,7 +167,17 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
       if (node < 0 || node >= n)
         throw std::invalid_argument(
             fmt::format("checkpoint: a contact coupling names node index {} of {}", node, n));
-  assembler_->set_couplings(from.pattern_groups);
+  // A pattern of a process's share takes the couplings that touch its nodes (its own pairs' are
+  // among them); the next pruning keeps those its pairs need.
+  if (const auto& share = assembler_->share()) {
+    std::vector<ContactCoupling> touching;
+    for (const auto& g : from.pattern_groups)
+      if (std::any_of(g.nodes.begin(), g.nodes.end(), [&](int node) { return share->owns(node); }))
+        touching.push_back(g);
+    assembler_->set_couplings(std::move(touching));
+  } else {
+    assembler_->set_couplings(from.pattern_groups);
+  }
   solver_->set_ordering(from.ordering);
 }
 

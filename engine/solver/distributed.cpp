@@ -95,6 +95,32 @@ std::vector<char> gather_bytes(const void* bytes, std::size_t n) {
   return out;
 }
 
+std::vector<char> gather_bytes_on_first(const void* bytes, std::size_t n) {
+  const char* begin = static_cast<const char*>(bytes);
+  if (size() == 1)
+    return std::vector<char>(begin, begin + n);
+  // Counts in bytes as MPI ints: each process's share below 2 GiB.
+  const int p = size();
+  const int mine = static_cast<int>(n);
+  std::vector<int> counts(static_cast<std::size_t>(p)), offsets(static_cast<std::size_t>(p), 0);
+  MPI_Gather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+  long long total = 0;
+  for (int r = 0; r < p; ++r) {
+    offsets[r] = static_cast<int>(total);
+    total += counts[r];
+  }
+  std::vector<char> out(rank() == 0 ? static_cast<std::size_t>(total) : 0);
+  MPI_Gatherv(begin, mine, MPI_BYTE, out.data(), counts.data(), offsets.data(), MPI_BYTE, 0,
+              MPI_COMM_WORLD);
+  return out;
+}
+
+double from_first(double value) {
+  if (size() > 1)
+    MPI_Bcast(&value, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  return value;
+}
+
 std::string first_message(const std::string& local) {
   if (size() == 1)
     return local;
@@ -143,6 +169,12 @@ double smallest(double local) {
 std::vector<char> gather_bytes(const void* bytes, std::size_t n) {
   const char* begin = static_cast<const char*>(bytes);
   return std::vector<char>(begin, begin + n);
+}
+std::vector<char> gather_bytes_on_first(const void* bytes, std::size_t n) {
+  return gather_bytes(bytes, n);
+}
+double from_first(double value) {
+  return value;
 }
 std::string first_message(const std::string& local) {
   return local;

@@ -58,6 +58,23 @@ std::vector<T> gather(const std::vector<T>& local) {
   return out;
 }
 
+/// Every process's `bytes` concatenated in rank order on the first process (rank 0), nothing on
+/// the others (collective); a copy of them in a one-process run.
+std::vector<char> gather_bytes_on_first(const void* bytes, std::size_t n);
+
+/// gather() to the first process alone: the others get an empty vector (collective).
+template <class T>
+std::vector<T> gather_on_first(const std::vector<T>& local) {
+  const std::vector<char> bytes = gather_bytes_on_first(local.data(), local.size() * sizeof(T));
+  std::vector<T> out(bytes.size() / sizeof(T));
+  if (!bytes.empty())
+    std::memcpy(static_cast<void*>(out.data()), bytes.data(), bytes.size());
+  return out;
+}
+
+/// The first process's `value` on every process (collective); `value` in a one-process run.
+double from_first(double value);
+
 /// The message of the lowest-ranked process whose `local` is not empty, on every process
 /// (collective); empty when every process's is. `local` in a one-process run.
 std::string first_message(const std::string& local);

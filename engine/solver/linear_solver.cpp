@@ -4,6 +4,8 @@
 #include "engine/solver/symmetric_part.hpp"
 
 // Eigen's MetisSupport needs <iostream> before it (engineering-notes.md).
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <exception>
@@ -298,7 +300,7 @@ public:
     // assembled, in every column, and MUMPS sums them: for LDL^T those of the lower triangle
     // whose entry or transpose it assembled (its symmetric part's share).
     const SparseMatrix& M = symmetric_ ? sym_.matrix() : A;
-    const bool partial = !own_.empty();
+    const bool partial = partial_;
     if (partial && own_.size() != std::size_t(A.nonZeros()))
       throw std::logic_error(
           fmt::format("MUMPS: {} own entries for a tangent of {}", own_.size(), A.nonZeros()));
@@ -331,9 +333,48 @@ public:
     id_.jcn = jcn_.data();
     id_.a = values_.data();
 #endif
-    // The entries handed in, all processes': the fill's denominator.
-    const double handed_in = symmetric_ ? 0.5 * static_cast<double>(M.nonZeros() + M.rows())
-                                        : static_cast<double>(A.nonZeros());
+    // The entries handed in, all processes': the fill's denominator. Where each process hands
+    // in its own entries it holds the pattern of its share alone (Assembler::share): the host
+    // gathers the structure the processes hand in, whose union is the whole tangent's (or its
+    // symmetric part's lower triangle), for the count and for METIS. Gathered to the host only,
+    // for the analysis only.
+    SparseMatrix gathered; // the host's: the lower triangle of that union's symmetric pattern
+    double handed_in = symmetric_ ? 0.5 * static_cast<double>(M.nonZeros() + M.rows())
+                                  : static_cast<double>(A.nonZeros());
+    if (partial && distributed::size() > 1) {
+      // (column, row), 0-based, of the entries handed in (LDL^T: in the lower triangle).
+      std::vector<std::array<int, 2>> mine(irn_.size());
+      for (std::size_t k = 0; k < irn_.size(); ++k)
+        mine[k] = {jcn_[k] - 1, irn_[k] - 1};
+      std::vector<std::array<int, 2>> all = distributed::gather_on_first(mine);
+      mine = {};
+      if (distributed::rank() == 0) {
+        const auto sort_unique = [&all] {
+          std::sort(all.begin(), all.end());
+          all.erase(std::unique(all.begin(), all.end()), all.end());
+        };
+        sort_unique();
+        handed_in = static_cast<double>(all.size());
+        if (!symmetric_) { // an LU entry and its transpose fall on one of the lower triangle
+          for (auto& [col, row] : all)
+            if (row < col)
+              std::swap(row, col);
+          sort_unique();
+        }
+        gathered.resize(A.rows(), A.cols());
+        gathered.resizeNonZeros(static_cast<Eigen::Index>(all.size()));
+        int* outer = gathered.outerIndexPtr();
+        std::fill(outer, outer + gathered.outerSize() + 1, 0);
+        for (std::size_t k = 0; k < all.size(); ++k) {
+          ++outer[all[k][0] + 1];
+          gathered.innerIndexPtr()[k] = all[k][1];
+        }
+        for (Eigen::Index c = 0; c < gathered.outerSize(); ++c)
+          outer[c + 1] += outer[c];
+        std::fill(gathered.valuePtr(), gathered.valuePtr() + all.size(), 1.0);
+      }
+      handed_in = distributed::from_first(handed_in);
+    }
     // A changed pattern keeps the last ordering while the factor's estimated entries (MUMPS's
     // analysis, INFOG(20), the same on every process) stay within kOrderingFillGrowth of those
     // it had when METIS computed it, as SymmetricLDLTSolver does; METIS orders it afresh
@@ -345,7 +386,10 @@ public:
     }
     if (distributed::rank() == 0) { // the host orders, on the symmetric part's pattern
       const Permutation inverse =
-          metis_inverse_permutation(symmetric_ ? M : SparseMatrix(A + SparseMatrix(A.transpose())));
+          gathered.nonZeros() > 0
+              ? metis_inverse_permutation(gathered)
+              : metis_inverse_permutation(
+                    symmetric_ ? M : SparseMatrix(A + SparseMatrix(A.transpose())));
       ordering_.inverse_permutation.assign(inverse.indices().data(),
                                            inverse.indices().data() + inverse.size());
     } else {
@@ -397,6 +441,7 @@ public:
   }
   void set_own_entries(std::vector<char> own) override {
     own_ = std::move(own);
+    partial_ = true;
   }
 
 private:
@@ -450,9 +495,11 @@ private:
   /// The ordering in use (the host's; zeros on the others) and its fill: the factor's estimated
   /// entries over the entries handed in when METIS computed it; 0: none yet.
   SolverOrdering ordering_;
-  /// Over several processes holding partial sums: the entries of A this process assembled
-  /// (set_own_entries); empty: the whole tangent, shared by columns.
+  /// Over several processes holding partial sums (partial_: set_own_entries was called): the
+  /// entries of A this process assembled, which may be none (a process of no element or pair
+  /// with a free DOF). Otherwise the whole tangent, shared by columns.
   std::vector<char> own_;
+  bool partial_ = false;
 };
 #endif
 

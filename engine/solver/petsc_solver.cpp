@@ -73,7 +73,7 @@ public:
     check(MatSetSizes(matrix_, m, m, n, n), "MatSetSizes");
     check(MatSetType(matrix_, MATAIJ), "MatSetType");
     own_source_.clear();
-    if (!own_.empty())
+    if (partial_)
       own_pattern(A, M);
     else
       whole_pattern(M);
@@ -101,7 +101,7 @@ public:
     if (symmetric_)
       sym_.update(A);
     const double* values = symmetric_ ? sym_.matrix().valuePtr() : A.valuePtr();
-    if (!own_.empty()) {
+    if (partial_) {
       // Each process's own entries: PETSc sums them over the processes into the owners' rows.
       for (std::size_t i = 0; i < own_source_.size(); ++i)
         own_values_[i] = values[own_source_[i]];
@@ -155,7 +155,10 @@ public:
 
   std::string name() const override { return "petsc"; }
   bool sums_partial_tangents() const override { return distributed::size() > 1; }
-  void set_own_entries(std::vector<char> own) override { own_ = std::move(own); }
+  void set_own_entries(std::vector<char> own) override {
+    own_ = std::move(own);
+    partial_ = true;
+  }
 
 private:
   /// The pattern of a whole tangent M: this process's rows, preallocated and set (zeros), and
@@ -278,9 +281,11 @@ private:
   Mat matrix_ = nullptr;
   Mat diagonal_block_ = nullptr, off_block_ = nullptr; ///< matrix_'s local blocks (not owned)
   std::vector<int> diagonal_source_, off_source_;      ///< per entry of a block: the index in M
-  /// This process's own entries (set_own_entries; empty: it holds the whole tangent), and for
-  /// each of those of M it hands in (MatSetPreallocationCOO's order) its index in M and value.
+  /// This process's own entries (set_own_entries, which sets partial_; they may be none), or,
+  /// without partial_, the whole tangent; and for each of those of M it hands in
+  /// (MatSetPreallocationCOO's order) its index in M and value.
   std::vector<char> own_;
+  bool partial_ = false;
   std::vector<int> own_source_;
   std::vector<PetscScalar> own_values_;
   Vec b_ = nullptr, x_ = nullptr, x_all_ = nullptr;

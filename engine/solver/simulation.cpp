@@ -86,13 +86,14 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
         prescribed_r_.push_back({node, &*p.rotation});
       }
     }
-  assembler_ = std::make_unique<Assembler>(model, constrained);
   // Over several processes each assembles its share of the elements, the pairs and the nodes'
   // terms, and evaluate() sums them (partition.hpp).
   if (distributed::size() > 1) {
     shares_ = partition_all(model, distributed::size());
     partition_ = shares_[static_cast<std::size_t>(distributed::rank())];
   }
+  const int n_equations =
+      static_cast<int>(std::count(constrained.begin(), constrained.end(), char{0}));
   LinearSolverKind kind = options.linear_solver;
   const bool moments = std::any_of(model.loads.begin(), model.loads.end(),
                                    [](const NodalLoad& l) { return l.moment.squaredNorm() > 0; });
@@ -115,12 +116,17 @@ Simulation::Simulation(const Model& model, SimulationOptions options)
       kind = mumps_available() ? LinearSolverKind::MUMPS : LinearSolverKind::LU;
     else if (!model.surface_contacts.empty())
       kind = LinearSolverKind::LDLTGmres;
-    else if (mumps_available() && assembler_->n_equations() >= kMumpsEquations)
+    else if (mumps_available() && n_equations >= kMumpsEquations)
       kind = LinearSolverKind::MUMPS; // a large symmetric system: multifrontal beats simplicial
     else
       kind = LinearSolverKind::LDLTSymmetric;
   }
   solver_ = make_linear_solver(kind, symmetric_tangent);
+  // A solver that sums the processes' own entries (MUMPS, PETSc) needs of each process only the
+  // pattern of what it assembles; the others take the whole tangent, summed over the processes.
+  assembler_ = std::make_unique<Assembler>(
+      model, constrained,
+      partition_ && solver_->sums_partial_tangents() ? partition_ : std::nullopt);
   contact_ = ContactStage::of(model);
   if (contact_ && partition_)
     contact_->set_partition(partition_);
@@ -486,8 +492,9 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
   Evaluation out;
   if (contact_ && contact_->partitioned()) {
     // Over several processes each projected its own pairs: the vetoes and figures are agreed,
-    // the pattern grows by every process's couplings (so the patterns stay the same), and each
-    // adds its pairs, after the beams as in the graph.
+    // the pattern grows by this process's couplings where it holds its share alone, by every
+    // process's otherwise (so the whole patterns stay the same), and each adds its pairs, after
+    // the beams as in the graph.
     const auto t_agree = std::chrono::steady_clock::now();
     iteration_.veto = agree_contact(iteration_.veto);
     if (iteration_.veto.empty()) {
@@ -501,9 +508,13 @@ Simulation::Evaluation Simulation::evaluate(const SolutionStep& step, const Newm
                        std::back_inserter(merged));
         own_couplings_changed_ = own_couplings_changed_ || merged.size() != own_couplings_.size();
         own_couplings_ = std::move(merged);
-        std::vector<ContactCoupling> couplings = distributed::gather(mine);
-        std::sort(couplings.begin(), couplings.end());
-        assembler_->ensure_couplings(std::move(couplings));
+        if (assembler_->share()) {
+          assembler_->ensure_couplings(std::move(mine));
+        } else {
+          std::vector<ContactCoupling> couplings = distributed::gather(mine);
+          std::sort(couplings.begin(), couplings.end());
+          assembler_->ensure_couplings(std::move(couplings));
+        }
       }
       contact_->assemble(residual, *assembler_, want_tangent);
     }
@@ -683,15 +694,15 @@ double Simulation::limit_correction(const Eigen::VectorXd& delta, double lambda,
 std::string Simulation::factorize_tangent() {
   auto tick = std::chrono::steady_clock::now();
   // Over several processes handing in their own entries, a process whose pairs need blocks it
-  // did not assemble before (in a pattern that already held them) analyses again with the
-  // others (a collective call).
-  bool own_changed = false;
+  // did not assemble before, or whose pattern (of its share) changed, analyses again with the
+  // others (a collective call): each pattern changes on its own.
+  bool analyse = analysed_pattern_ != assembler_->pattern_version();
   if (partition_ && solver_->sums_partial_tangents()) {
-    own_changed = distributed::any(own_couplings_changed_);
+    analyse = distributed::any(own_couplings_changed_ || analyse);
     own_couplings_changed_ = false;
   }
   try {
-    if (own_changed || analysed_pattern_ != assembler_->pattern_version()) {
+    if (analyse) {
       if (partition_ && solver_->sums_partial_tangents())
         solver_->set_own_entries(assembler_->own_entries(*partition_, own_couplings_));
       solver_->analyze(assembler_->matrix());
@@ -960,6 +971,12 @@ void Simulation::gather_contact() {
   gathered_surface_.reset();
   if (!contact_ || !contact_->partitioned())
     return;
+  if (assembler_->share()) {
+    gathered_couplings_ = distributed::gather(assembler_->couplings());
+    std::sort(gathered_couplings_.begin(), gathered_couplings_.end());
+    gathered_couplings_.erase(std::unique(gathered_couplings_.begin(), gathered_couplings_.end()),
+                              gathered_couplings_.end());
+  }
   // The points, in the one-process order: by set (spline first), definition and pair.
   std::vector<ContactPoint> points = distributed::gather(contact_->local_points());
   std::sort(points.begin(), points.end(), [](const ContactPoint& a, const ContactPoint& b) {
@@ -1022,6 +1039,8 @@ std::string Simulation::rebalance() {
   share_contact_pairs();
   own_couplings_.clear();
   own_couplings_changed_ = true;
+  if (assembler_->share())
+    assembler_->set_share(*partition_); // the new share's elements and nodes; pairs as they come
   return fmt::format("the work over the {} processes balanced again for {} contact candidates: "
                      "the largest share {:.2f} -> {:.2f} times the mean",
                      shares_.size(), contact_->summary().candidates, before, after);
@@ -1029,9 +1048,10 @@ std::string Simulation::rebalance() {
 
 void Simulation::prune_couplings() {
   std::vector<ContactCoupling> mine = contact_->couplings();
-  // Over several processes every process's pairs, so that the patterns stay the same.
+  // Over several processes every process's pairs, so that the whole patterns stay the same; a
+  // pattern of a process's share, its own.
   const std::vector<ContactCoupling> needed =
-      contact_->partitioned() ? distributed::gather(mine) : mine;
+      contact_->partitioned() && !assembler_->share() ? distributed::gather(mine) : mine;
   if (4 * assembler_->couplings().size() <= 5 * needed.size() + 64)
     return;
   assembler_->set_couplings(needed);

@@ -433,6 +433,9 @@ private:
   /// The processes' contact snapshots of the last commit (gather_contact), for checkpoint().
   std::optional<SplineContactSet::Snapshot> gathered_spline_;
   std::optional<SurfaceContactSet::Snapshot> gathered_surface_;
+  /// Over several processes with a pattern per process (Assembler::share): every process's
+  /// contact couplings, gathered with the histories, for the checkpoint's pattern.
+  std::vector<ContactCoupling> gathered_couplings_;
   double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();
 
   struct IterationGraph;

@@ -377,6 +377,7 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
           r, Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(K.valuePtr(), K.nonZeros()))};
     };
     const auto [r_one, K_one] = assemble(*whole, nullptr);
+    const SparseMatrix whole_matrix = assembler.matrix();
     for (const int ranks : {2, 3, 5}) {
       SCOPED_TRACE(ranks);
       const std::vector<NodePartition> parts = partition_all(m, ranks);
@@ -393,6 +394,7 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
                       K_sum = Eigen::VectorXd::Zero(K_one.size());
       std::vector<ContactSummary> summaries;
       std::vector<ContactPoint> points;
+      SparseMatrix shares_sum;
       for (const NodePartition& part : parts) {
         const std::unique_ptr<ContactStage> stage = ContactStage::of(m);
         stage->set_partition(part);
@@ -404,7 +406,35 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
         const auto [r, K] = assemble(*stage, &part);
         r_sum += r;
         K_sum += K;
+        // The pattern of the share alone (Assembler::share, a solver summing the processes'
+        // own entries): it holds what this process assembles and nothing else, the same values
+        // in the same places of the whole system, and smaller than the whole pattern.
+        Assembler share(m, std::vector<char>(static_cast<std::size_t>(6 * n), 0), part);
+        const std::vector<ContactCoupling> couplings = stage->couplings();
+        share.ensure_couplings(couplings);
+        Eigen::VectorXd r_own = Eigen::VectorXd::Zero(6 * n);
+        share.zero_matrix();
+        share.add_beams(state, r_own, true, {}, nullptr, &part);
+        stage->assemble(r_own, share, true);
+        EXPECT_EQ(r_own, r);
+        const std::vector<char> mine = share.own_entries(part, couplings);
+        EXPECT_EQ(std::count(mine.begin(), mine.end(), char{1}), share.matrix().nonZeros());
+        EXPECT_LT(share.matrix().nonZeros(), whole_matrix.nonZeros());
+        shares_sum =
+            shares_sum.nonZeros() == 0 ? share.matrix() : SparseMatrix(shares_sum + share.matrix());
+        EXPECT_THROW(
+            share.add_node_block(part.first > 0 ? 0 : n - 1, 0, 0, Eigen::Matrix3d::Identity()),
+            std::logic_error); // a node of another process
       }
+      // The shares' patterns together are the whole pattern, their sums its values.
+      ASSERT_EQ(shares_sum.nonZeros(), whole_matrix.nonZeros());
+      for (Eigen::Index k = 0; k < whole_matrix.nonZeros(); ++k)
+        ASSERT_EQ(shares_sum.innerIndexPtr()[k], whole_matrix.innerIndexPtr()[k]);
+      EXPECT_LE(
+          (Eigen::Map<const Eigen::VectorXd>(shares_sum.valuePtr(), shares_sum.nonZeros()) - K_one)
+              .cwiseAbs()
+              .maxCoeff(),
+          1e-12 * K_one.cwiseAbs().maxCoeff());
       // Each process is charged, in the partition's balance (add_candidate_loads), the
       // candidates it projects: those its nodes own.
       std::vector<double> load(static_cast<std::size_t>(n), 0.0);

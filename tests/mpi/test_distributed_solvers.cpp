@@ -96,6 +96,56 @@ TEST_P(DistributedSolver, SolvesTheWholeSystemAndGivesEveryProcessTheSameBits) {
   EXPECT_TRUE(same_on_every_process(y));
 }
 
+TEST_P(DistributedSolver, SumsTheProcessesOwnPatternsIntoTheWholeSystem) {
+  // A run's processes each hold the pattern of what they assemble alone (Assembler::share):
+  // the patterns differ, some entries are held by several processes (a node's block that two
+  // processes' contact pairs add to), and a process may hold none. The solver sums them: the
+  // solution must be the summed system's, the same bits on every process, and the ordering the
+  // host computes from the gathered patterns must be agreed (a process that skipped the
+  // gathering would hang the others).
+  const Case c = GetParam();
+  const int n = 1500;
+  const SparseMatrix A = weave_like(n, c.symmetric ? 0.0 : 0.3);
+  const int p = distributed::size(), r = distributed::rank();
+  // Entries (i, j) and (j, i) go to process (min + 2 max) mod h (a pattern of node blocks is
+  // structurally symmetric), h the processes holding entries (the last of three or more holds
+  // none); the diagonal is split between all h.
+  const int h = p >= 3 ? p - 1 : p;
+  std::vector<Eigen::Triplet<double>> mine;
+  for (int k = 0; k < A.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
+      const int i = static_cast<int>(it.row()), j = static_cast<int>(it.col());
+      if (i == j && r < h)
+        mine.emplace_back(i, j, it.value() / h);
+      else if (i != j && (std::min(i, j) + 2 * std::max(i, j)) % h == r && r < h)
+        mine.emplace_back(i, j, it.value());
+    }
+  SparseMatrix P(n, n);
+  P.setFromTriplets(mine.begin(), mine.end());
+  P.makeCompressed();
+  auto solver = make_linear_solver(c.kind, c.symmetric);
+  ASSERT_EQ(solver->sums_partial_tangents(), p > 1);
+  solver->set_own_entries(std::vector<char>(static_cast<std::size_t>(P.nonZeros()), 1));
+  solver->analyze(P);
+  solver->factorize(P);
+  const Eigen::VectorXd b = right_hand_side(n);
+  const Eigen::VectorXd x = solver->solve(b);
+  EXPECT_LT((b - A * x).norm() / b.norm(), 1e-12) << solver->name();
+  EXPECT_TRUE(same_on_every_process(x));
+  // MUMPS's host orders the union of the gathered patterns: the whole system's, so the ordering
+  // (and the fill it decides by) is the one a whole matrix gets.
+  if (c.kind == LinearSolverKind::MUMPS) {
+    auto whole = make_linear_solver(c.kind, c.symmetric);
+    whole->analyze(A);
+    const SolverOrdering a = solver->ordering(), w = whole->ordering();
+    if (r == 0) {
+      EXPECT_EQ(a.inverse_permutation, w.inverse_permutation);
+      EXPECT_GT(a.inverse_permutation.size(), 0u);
+    }
+    EXPECT_EQ(a.fill, w.fill);
+  }
+}
+
 TEST_P(DistributedSolver, RefusesASingularSystemOnEveryProcess) {
   const Case c = GetParam();
   const int n = 300;
