@@ -5,7 +5,9 @@
 
 #include <Eigen/Geometry>
 
+#include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace yarnsim::output {
@@ -19,6 +21,25 @@ Eigen::Vector2d unit_section_point(int k, double exponent) {
   const double p = 2.0 / exponent;
   return {std::copysign(std::pow(std::abs(c), p), c), std::copysign(std::pow(std::abs(s), p), s)};
 }
+
+/// The ring's unit section points for one exponent, made again only where the exponent changes
+/// (a fabric's yarns share a few): the pow and sincos per point and output step were 3 % of the
+/// paper's k = 1 run's samples (docs/performance.md).
+class UnitRing {
+public:
+  const std::array<Eigen::Vector2d, kRingPoints>& of(double exponent) {
+    if (exponent != exponent_) {
+      for (int k = 0; k < kRingPoints; ++k)
+        ring_[static_cast<std::size_t>(k)] = unit_section_point(k, exponent);
+      exponent_ = exponent;
+    }
+    return ring_;
+  }
+
+private:
+  double exponent_ = std::numeric_limits<double>::quiet_NaN(); // none yet: NaN equals nothing
+  std::array<Eigen::Vector2d, kRingPoints> ring_{};
+};
 
 void append_point(std::vector<float>& out, const Eigen::Vector3d& x) {
   out.push_back(static_cast<float>(x.x()));
@@ -58,13 +79,13 @@ std::vector<float> surface_points(const Eigen::Matrix3Xd& positions,
                                   const std::vector<NodeSection>& sections) {
   std::vector<float> out;
   out.reserve(3 * kRingPoints * static_cast<std::size_t>(positions.cols()));
+  UnitRing unit;
   for (Eigen::Index i = 0; i < positions.cols(); ++i) {
     const Eigen::Matrix3d Q = rotation_matrix(rotations.col(i)) * reference_triads[i];
     const NodeSection& s = sections[i];
-    for (int k = 0; k < kRingPoints; ++k) {
-      const Eigen::Vector2d y = unit_section_point(k, s.exponent);
+    const std::array<Eigen::Vector2d, kRingPoints>& ring = unit.of(s.exponent);
+    for (const Eigen::Vector2d& y : ring)
       append_point(out, positions.col(i) + s.a * y.x() * Q.col(0) + s.b * y.y() * Q.col(1));
-    }
   }
   return out;
 }
@@ -88,6 +109,12 @@ std::vector<std::array<int, 4>> tube_quads(const std::vector<ContactTube>& tubes
 std::vector<float> tube_points(const Eigen::Matrix3Xd& positions,
                                const std::vector<ContactTube>& tubes) {
   std::vector<float> out;
+  // (cos, sin) of the circles' angles, once.
+  std::array<Eigen::Vector2d, kTubePoints> circle;
+  for (int k = 0; k < kTubePoints; ++k) {
+    const double theta = 2.0 * std::numbers::pi * k / kTubePoints;
+    circle[static_cast<std::size_t>(k)] = {std::cos(theta), std::sin(theta)};
+  }
   for (const ContactTube& tube : tubes) {
     const int n = static_cast<int>(tube.nodes.size());
     Eigen::Matrix3Xd control(3, n);
@@ -110,10 +137,8 @@ std::vector<float> tube_points(const Eigen::Matrix3Xd& positions,
       }
       d1 = (d1 - d1.dot(t) * t).normalized();
       const Eigen::Vector3d d2 = t.cross(d1);
-      for (int k = 0; k < kTubePoints; ++k) {
-        const double theta = 2.0 * std::numbers::pi * k / kTubePoints;
-        append_point(out, centre + tube.radius * (std::cos(theta) * d1 + std::sin(theta) * d2));
-      }
+      for (const Eigen::Vector2d& cs : circle)
+        append_point(out, centre + tube.radius * (cs.x() * d1 + cs.y() * d2));
     }
   }
   return out;
