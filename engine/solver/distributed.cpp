@@ -1,6 +1,11 @@
 #include "engine/solver/distributed.hpp"
 
 #include <algorithm>
+#include <fmt/format.h>
+#include <limits>
+#include <stdexcept>
+#include <tuple>
+#include <utility>
 
 #ifdef YARNSIM_HAVE_MPI
 #include <mpi.h>
@@ -75,43 +80,60 @@ double smallest(double local) {
   return reduced(local, MPI_MIN);
 }
 
+namespace {
+/// Each process's block start, in rank order, for blocks of `counts` units (an MPI int each), and
+/// their total. Throws std::overflow_error where the starts leave MPI's int.
+std::pair<std::vector<int>, long long> block_starts(const std::vector<int>& counts,
+                                                    const char* what) {
+  std::vector<int> offsets(counts.size(), 0);
+  long long total = 0;
+  for (std::size_t r = 0; r < counts.size(); ++r) {
+    if (total > std::numeric_limits<int>::max())
+      throw std::overflow_error(fmt::format("{}: {} units gathered from {} processes exceed an "
+                                            "MPI int's count",
+                                            what, total, counts.size()));
+    offsets[r] = static_cast<int>(total);
+    total += counts[r];
+  }
+  return {std::move(offsets), total};
+}
+} // namespace
+
 std::vector<char> gather_bytes(const void* bytes, std::size_t n) {
   const char* begin = static_cast<const char*>(bytes);
   if (size() == 1)
     return std::vector<char>(begin, begin + n);
   // Counts in bytes as MPI ints: each process's share below 2 GiB.
-  const int p = size();
   const int mine = static_cast<int>(n);
-  std::vector<int> counts(static_cast<std::size_t>(p)), offsets(static_cast<std::size_t>(p), 0);
+  std::vector<int> counts(static_cast<std::size_t>(size()));
   MPI_Allgather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  long long total = 0;
-  for (int r = 0; r < p; ++r) {
-    offsets[r] = static_cast<int>(total);
-    total += counts[r];
-  }
+  const auto [offsets, total] = block_starts(counts, "gather");
   std::vector<char> out(static_cast<std::size_t>(total));
   MPI_Allgatherv(begin, mine, MPI_BYTE, out.data(), counts.data(), offsets.data(), MPI_BYTE,
                  MPI_COMM_WORLD);
   return out;
 }
 
-std::vector<char> gather_bytes_on_first(const void* bytes, std::size_t n) {
-  const char* begin = static_cast<const char*>(bytes);
+std::vector<char> gather_on_first_bytes(const void* elements, std::size_t n,
+                                        std::size_t element_size) {
+  const char* begin = static_cast<const char*>(elements);
   if (size() == 1)
-    return std::vector<char>(begin, begin + n);
-  // Counts in bytes as MPI ints: each process's share below 2 GiB.
-  const int p = size();
+    return std::vector<char>(begin, begin + n * element_size);
+  // Counted in elements (an MPI type of element_size bytes): the host's total may pass 2 GiB.
+  MPI_Datatype element;
+  MPI_Type_contiguous(static_cast<int>(element_size), MPI_BYTE, &element);
+  MPI_Type_commit(&element);
   const int mine = static_cast<int>(n);
-  std::vector<int> counts(static_cast<std::size_t>(p)), offsets(static_cast<std::size_t>(p), 0);
+  std::vector<int> counts(static_cast<std::size_t>(size()));
   MPI_Gather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+  std::vector<int> offsets(counts.size(), 0);
   long long total = 0;
-  for (int r = 0; r < p; ++r) {
-    offsets[r] = static_cast<int>(total);
-    total += counts[r];
-  }
-  std::vector<char> out(rank() == 0 ? static_cast<std::size_t>(total) : 0);
-  MPI_Gatherv(begin, mine, MPI_BYTE, out.data(), counts.data(), offsets.data(), MPI_BYTE, 0,
+  if (rank() == 0) // only the host's counts are filled
+    std::tie(offsets, total) = block_starts(counts, "gather on the first process");
+  std::vector<char> out(static_cast<std::size_t>(total) * element_size);
+  MPI_Gatherv(begin, mine, element, out.data(), counts.data(), offsets.data(), element, 0,
               MPI_COMM_WORLD);
+  MPI_Type_free(&element);
   return out;
 }
 
@@ -170,8 +192,9 @@ std::vector<char> gather_bytes(const void* bytes, std::size_t n) {
   const char* begin = static_cast<const char*>(bytes);
   return std::vector<char>(begin, begin + n);
 }
-std::vector<char> gather_bytes_on_first(const void* bytes, std::size_t n) {
-  return gather_bytes(bytes, n);
+std::vector<char> gather_on_first_bytes(const void* elements, std::size_t n,
+                                        std::size_t element_size) {
+  return gather_bytes(elements, n * element_size);
 }
 double from_first(double value) {
   return value;

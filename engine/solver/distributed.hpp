@@ -58,14 +58,16 @@ std::vector<T> gather(const std::vector<T>& local) {
   return out;
 }
 
-/// Every process's `bytes` concatenated in rank order on the first process (rank 0), nothing on
-/// the others (collective); a copy of them in a one-process run.
-std::vector<char> gather_bytes_on_first(const void* bytes, std::size_t n);
+/// Every process's `n` elements of `element_size` bytes concatenated in rank order on the first
+/// process (rank 0), nothing on the others (collective); a copy of them in a one-process run.
+/// Counted in elements: each process's share and the host's total below 2^31 of them.
+std::vector<char> gather_on_first_bytes(const void* elements, std::size_t n,
+                                        std::size_t element_size);
 
 /// gather() to the first process alone: the others get an empty vector (collective).
 template <class T>
 std::vector<T> gather_on_first(const std::vector<T>& local) {
-  const std::vector<char> bytes = gather_bytes_on_first(local.data(), local.size() * sizeof(T));
+  const std::vector<char> bytes = gather_on_first_bytes(local.data(), local.size(), sizeof(T));
   std::vector<T> out(bytes.size() / sizeof(T));
   if (!bytes.empty())
     std::memcpy(static_cast<void*>(out.data()), bytes.data(), bytes.size());
