@@ -170,7 +170,11 @@ void Assembler::build_pattern(bool keep_values) {
 
   // Column-major like ElementMatrix, so the scatter reads both in memory order.
   element_slot_.assign(connectivity_.size(), -1);
-  element_slots_.clear();
+  element_slots_.clear(); // keeps its storage for the next build (set_couplings)
+  std::size_t held = 0;
+  for (std::size_t e = 0; e < connectivity_.size(); ++e)
+    held += holds_element(static_cast<int>(e)) ? 1 : 0;
+  element_slots_.reserve(held);
   for (std::size_t e = 0; e < connectivity_.size(); ++e) {
     if (!holds_element(static_cast<int>(e)))
       continue;
