@@ -960,6 +960,7 @@ void Simulation::share_contact_pairs() {
     contact_->clear_dissipation();
   gathered_spline_.reset();
   gathered_surface_.reset();
+  gathered_everywhere_ = true;
   if (const SplineContactSet* spline = contact_->spline())
     gathered_spline_ = spline->snapshot();
   if (const SurfaceContactSet* surface = contact_->surface())
@@ -971,8 +972,8 @@ void Simulation::gather_contact() {
   gathered_surface_.reset();
   if (!contact_ || !contact_->partitioned())
     return;
-  if (assembler_->share()) {
-    gathered_couplings_ = distributed::gather(assembler_->couplings());
+  if (assembler_->share()) { // for the leader's checkpoints
+    gathered_couplings_ = distributed::gather_on_first(assembler_->couplings());
     std::sort(gathered_couplings_.begin(), gathered_couplings_.end());
     gathered_couplings_.erase(std::unique(gathered_couplings_.begin(), gathered_couplings_.end()),
                               gathered_couplings_.end());
@@ -983,9 +984,19 @@ void Simulation::gather_contact() {
     return std::tie(a.surface, a.definition, a.pair) < std::tie(b.surface, b.definition, b.pair);
   });
   contact_->set_gathered_points(std::move(points));
-  // The histories and last results, each list sorted by its key as one process keeps it.
-  const auto merged = [](const auto& local) {
-    auto all = distributed::gather(local);
+  gather_histories(false);
+}
+
+void Simulation::gather_histories(bool everywhere) {
+  gathered_spline_.reset();
+  gathered_surface_.reset();
+  gathered_everywhere_ = everywhere;
+  // Only the leader writes checkpoints: the others receive nothing unless a new partition needs
+  // every pair's history on every process (rebalance), which keeps the exchange at each commit
+  // to one copy of the histories and not one per process.
+  const bool here = everywhere || distributed::rank() == 0;
+  const auto merged = [everywhere](const auto& local) {
+    auto all = everywhere ? distributed::gather(local) : distributed::gather_on_first(local);
     std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return a.key < b.key; });
     return all;
   };
@@ -995,7 +1006,8 @@ void Simulation::gather_contact() {
     s.line_committed = merged(s.line_committed);
     s.pairs = merged(s.pairs);
     distributed::sum(&s.dissipated, 1);
-    gathered_spline_ = std::move(s);
+    if (here)
+      gathered_spline_ = std::move(s);
   }
   if (const SurfaceContactSet* surface = contact_->surface()) {
     SurfaceContactSet::Snapshot s = surface->snapshot();
@@ -1003,7 +1015,8 @@ void Simulation::gather_contact() {
     s.pairs = merged(s.pairs);
     distributed::sum(&s.dissipated, 1);
     s.summary = contact_->summary(); // the processes' (as one process saves its own)
-    gathered_surface_ = std::move(s);
+    if (here)
+      gathered_surface_ = std::move(s);
   }
 }
 
@@ -1028,9 +1041,12 @@ std::string Simulation::rebalance() {
   const double before = imbalance(shares_), after = imbalance(shares);
   if (!(after <= before - kRebalanceGain))
     return {};
+  // Every process takes every pair's history of the commit just made (a restart's are on every
+  // process already), restores them, and keeps its own from the next search on.
+  if (!gathered_everywhere_)
+    gather_histories(true);
   shares_ = std::move(shares);
   partition_ = shares_[static_cast<std::size_t>(distributed::rank())];
-  // Every process restores every pair's history, and keeps its own from the next search on.
   contact_->set_partition(partition_);
   if (gathered_spline_)
     contact_->spline()->restore(*gathered_spline_);

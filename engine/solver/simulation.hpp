@@ -285,9 +285,14 @@ private:
   /// itself otherwise. Collective: every process calls it after each projection.
   std::string agree_contact(const std::string& veto);
   /// Over several processes: the contact points (for output) and histories (for checkpoints)
-  /// of the last converged state, gathered from the processes. Collective, after each commit of
-  /// an implicit step and before each explicit increment's output.
+  /// of the last converged state, gathered from the processes: the points on every process, the
+  /// histories on the first (the leader, which writes the checkpoints) alone. Collective, after
+  /// each commit of an implicit step and before each explicit increment's output.
   void gather_contact();
+  /// The processes' pairs' histories and last results, each list sorted by its key as one
+  /// process keeps it, into gathered_spline_ and gathered_surface_: on every process
+  /// (`everywhere`) or on the first alone (the others' reset). Collective.
+  void gather_histories(bool everywhere);
   /// Over several processes, where every process holds every pair (after a restore) and each is
   /// to keep its own from now on: the run's contact figures, points and snapshots as every
   /// process holds them.
@@ -336,9 +341,9 @@ private:
   /// cuts made again over the elements and the candidate pairs each node owns (partition_all
   /// with their load, kCandidateLoad each). Where that lowers the largest process's share of
   /// the work by kRebalanceGain of the mean at least, every process takes the histories
-  /// of every pair (the last gather_contact's) and keeps its new share of the pairs from the next
-  /// search on. Between increments (after a commit, and at a restart); returns a description of
-  /// the change for the user, or nothing.
+  /// of every pair (the commit's, gathered then on every process) and keeps its new share of the
+  /// pairs from the next search on. Between increments (after a commit, and at a restart); returns
+  /// a description of the change for the user, or nothing.
   std::string rebalance();
   double limit_correction(const Eigen::VectorXd& delta, double lambda, bool from_converged,
                           double& du, double& da);
@@ -433,6 +438,9 @@ private:
   /// The processes' contact snapshots of the last commit (gather_contact), for checkpoint().
   std::optional<SplineContactSet::Snapshot> gathered_spline_;
   std::optional<SurfaceContactSet::Snapshot> gathered_surface_;
+  /// Whether every process holds them (share_contact_pairs, or a rebalance's gathering), not the
+  /// first alone (gather_contact).
+  bool gathered_everywhere_ = false;
   /// Over several processes with a pattern per process (Assembler::share): every process's
   /// contact couplings, gathered with the histories, for the checkpoint's pattern.
   std::vector<ContactCoupling> gathered_couplings_;
