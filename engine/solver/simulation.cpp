@@ -960,7 +960,7 @@ void Simulation::share_contact_pairs() {
     contact_->clear_dissipation();
   gathered_spline_.reset();
   gathered_surface_.reset();
-  gathered_everywhere_ = true;
+  gathered_ = Gathered::everywhere;
   if (const SplineContactSet* spline = contact_->spline())
     gathered_spline_ = spline->snapshot();
   if (const SurfaceContactSet* surface = contact_->surface())
@@ -990,7 +990,7 @@ void Simulation::gather_contact() {
 void Simulation::gather_histories(bool everywhere) {
   gathered_spline_.reset();
   gathered_surface_.reset();
-  gathered_everywhere_ = everywhere;
+  gathered_ = everywhere ? Gathered::everywhere : Gathered::on_first;
   // Only the leader writes checkpoints: the others receive nothing unless a new partition needs
   // every pair's history on every process (rebalance), which keeps the exchange at each commit
   // to one copy of the histories and not one per process.
@@ -1042,8 +1042,9 @@ std::string Simulation::rebalance() {
   if (!(after <= before - kRebalanceGain))
     return {};
   // Every process takes every pair's history of the commit just made (a restart's are on every
-  // process already), restores them, and keeps its own from the next search on.
-  if (!gathered_everywhere_)
+  // process already; a fresh run before its first commit has none to take), restores them, and
+  // keeps its own from the next search on.
+  if (gathered_ == Gathered::on_first)
     gather_histories(true);
   shares_ = std::move(shares);
   partition_ = shares_[static_cast<std::size_t>(distributed::rank())];

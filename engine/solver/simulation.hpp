@@ -438,9 +438,10 @@ private:
   /// The processes' contact snapshots of the last commit (gather_contact), for checkpoint().
   std::optional<SplineContactSet::Snapshot> gathered_spline_;
   std::optional<SurfaceContactSet::Snapshot> gathered_surface_;
-  /// Whether every process holds them (share_contact_pairs, or a rebalance's gathering), not the
-  /// first alone (gather_contact).
-  bool gathered_everywhere_ = false;
+  /// Where they are: nowhere yet (a fresh run before its first commit), on the first process
+  /// alone (gather_contact), or on every process (share_contact_pairs, a rebalance's gathering).
+  enum class Gathered { nowhere, on_first, everywhere };
+  Gathered gathered_ = Gathered::nowhere;
   /// Over several processes with a pattern per process (Assembler::share): every process's
   /// contact couplings, gathered with the histories, for the checkpoint's pattern.
   std::vector<ContactCoupling> gathered_couplings_;
