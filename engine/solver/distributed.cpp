@@ -1,6 +1,7 @@
 #include "engine/solver/distributed.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <fmt/format.h>
 #include <limits>
 #include <stdexcept>
@@ -114,11 +115,13 @@ std::vector<char> gather_bytes(const void* bytes, std::size_t n) {
   return out;
 }
 
-std::vector<char> gather_on_first_bytes(const void* elements, std::size_t n,
-                                        std::size_t element_size) {
-  const char* begin = static_cast<const char*>(elements);
-  if (size() == 1)
-    return std::vector<char>(begin, begin + n * element_size);
+void gather_on_first_bytes(const void* elements, std::size_t n, std::size_t element_size,
+                           void* (*resize)(void* out, std::size_t total), void* out) {
+  if (size() == 1) {
+    if (n > 0)
+      std::memcpy(resize(out, n), elements, n * element_size);
+    return;
+  }
   // Counted in elements (an MPI type of element_size bytes): the host's total may pass 2 GiB.
   MPI_Datatype element;
   MPI_Type_contiguous(static_cast<int>(element_size), MPI_BYTE, &element);
@@ -127,14 +130,15 @@ std::vector<char> gather_on_first_bytes(const void* elements, std::size_t n,
   std::vector<int> counts(static_cast<std::size_t>(size()));
   MPI_Gather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
   std::vector<int> offsets(counts.size(), 0);
-  long long total = 0;
-  if (rank() == 0) // only the host's counts are filled
+  void* into = nullptr;
+  if (rank() == 0) { // only the host's counts are filled
+    long long total = 0;
     std::tie(offsets, total) = block_starts(counts, "gather on the first process");
-  std::vector<char> out(static_cast<std::size_t>(total) * element_size);
-  MPI_Gatherv(begin, mine, element, out.data(), counts.data(), offsets.data(), element, 0,
+    into = resize(out, static_cast<std::size_t>(total));
+  }
+  MPI_Gatherv(elements, mine, element, into, counts.data(), offsets.data(), element, 0,
               MPI_COMM_WORLD);
   MPI_Type_free(&element);
-  return out;
 }
 
 double from_first(double value) {
@@ -192,9 +196,10 @@ std::vector<char> gather_bytes(const void* bytes, std::size_t n) {
   const char* begin = static_cast<const char*>(bytes);
   return std::vector<char>(begin, begin + n);
 }
-std::vector<char> gather_on_first_bytes(const void* elements, std::size_t n,
-                                        std::size_t element_size) {
-  return gather_bytes(elements, n * element_size);
+void gather_on_first_bytes(const void* elements, std::size_t n, std::size_t element_size,
+                           void* (*resize)(void* out, std::size_t total), void* out) {
+  if (n > 0)
+    std::memcpy(resize(out, n), elements, n * element_size);
 }
 double from_first(double value) {
   return value;

@@ -59,18 +59,26 @@ std::vector<T> gather(const std::vector<T>& local) {
 }
 
 /// Every process's `n` elements of `element_size` bytes concatenated in rank order on the first
-/// process (rank 0), nothing on the others (collective); a copy of them in a one-process run.
-/// Counted in elements: each process's share and the host's total below 2^31 of them.
-std::vector<char> gather_on_first_bytes(const void* elements, std::size_t n,
-                                        std::size_t element_size);
+/// process (rank 0), written where `resize(out, total)` says (it makes room for `total`
+/// elements in `out` and returns where they go; called on the first process alone); nothing on
+/// the others (collective). A copy of them in a one-process run. Counted in elements: each
+/// process's share and the host's total below 2^31 of them.
+void gather_on_first_bytes(const void* elements, std::size_t n, std::size_t element_size,
+                           void* (*resize)(void* out, std::size_t total), void* out);
 
-/// gather() to the first process alone: the others get an empty vector (collective).
+/// gather() to the first process alone: the others get an empty vector (collective). Received
+/// straight into the vector (no copy of the host's whole).
 template <class T>
 std::vector<T> gather_on_first(const std::vector<T>& local) {
-  const std::vector<char> bytes = gather_on_first_bytes(local.data(), local.size(), sizeof(T));
-  std::vector<T> out(bytes.size() / sizeof(T));
-  if (!bytes.empty())
-    std::memcpy(static_cast<void*>(out.data()), bytes.data(), bytes.size());
+  std::vector<T> out;
+  gather_on_first_bytes(
+      local.data(), local.size(), sizeof(T),
+      [](void* v, std::size_t total) -> void* {
+        auto& o = *static_cast<std::vector<T>*>(v);
+        o.resize(total);
+        return o.data();
+      },
+      &out);
   return out;
 }
 

@@ -334,46 +334,16 @@ public:
     id_.a = values_.data();
 #endif
     // The entries handed in, all processes': the fill's denominator. Where each process hands
-    // in its own entries it holds the pattern of its share alone (Assembler::share): the host
-    // gathers the structure the processes hand in, whose union is the whole tangent's (or its
-    // symmetric part's lower triangle), for the count and for METIS. Gathered to the host only,
-    // for the analysis only.
-    SparseMatrix gathered; // the host's: the lower triangle of that union's symmetric pattern
+    // in its own entries it holds the pattern of its share alone (Assembler::share): the sum of
+    // the processes' counts (an entry two processes hand in counts twice, at every analysis
+    // alike), and the host gathers their structure (its union is the whole tangent's, or its
+    // symmetric part's lower triangle) only where METIS orders afresh, below.
+    const bool gathered = partial && distributed::size() > 1;
     double handed_in = symmetric_ ? 0.5 * static_cast<double>(M.nonZeros() + M.rows())
                                   : static_cast<double>(A.nonZeros());
-    if (partial && distributed::size() > 1) {
-      // (column, row), 0-based, of the entries handed in (LDL^T: in the lower triangle).
-      std::vector<std::array<int, 2>> mine(irn_.size());
-      for (std::size_t k = 0; k < irn_.size(); ++k)
-        mine[k] = {jcn_[k] - 1, irn_[k] - 1};
-      std::vector<std::array<int, 2>> all = distributed::gather_on_first(mine);
-      mine = {};
-      if (distributed::rank() == 0) {
-        const auto sort_unique = [&all] {
-          std::sort(all.begin(), all.end());
-          all.erase(std::unique(all.begin(), all.end()), all.end());
-        };
-        sort_unique();
-        handed_in = static_cast<double>(all.size());
-        if (!symmetric_) { // an LU entry and its transpose fall on one of the lower triangle
-          for (auto& [col, row] : all)
-            if (row < col)
-              std::swap(row, col);
-          sort_unique();
-        }
-        gathered.resize(A.rows(), A.cols());
-        gathered.resizeNonZeros(static_cast<Eigen::Index>(all.size()));
-        int* outer = gathered.outerIndexPtr();
-        std::fill(outer, outer + gathered.outerSize() + 1, 0);
-        for (std::size_t k = 0; k < all.size(); ++k) {
-          ++outer[all[k][0] + 1];
-          gathered.innerIndexPtr()[k] = all[k][1];
-        }
-        for (Eigen::Index c = 0; c < gathered.outerSize(); ++c)
-          outer[c + 1] += outer[c];
-        std::fill(gathered.valuePtr(), gathered.valuePtr() + all.size(), 1.0);
-      }
-      handed_in = distributed::from_first(handed_in);
+    if (gathered) {
+      handed_in = static_cast<double>(irn_.size());
+      distributed::sum(&handed_in, 1);
     }
     // A changed pattern keeps the last ordering while the factor's estimated entries (MUMPS's
     // analysis, INFOG(20), the same on every process) stay within kOrderingFillGrowth of those
@@ -384,12 +354,18 @@ public:
       if (factor_entries() <= kOrderingFillGrowth * ordering_.fill * handed_in)
         return;
     }
+    std::vector<std::array<int, 2>> structure; // (column, row), 0-based: the host's
+    if (gathered) {
+      std::vector<std::array<int, 2>> mine(irn_.size());
+      for (std::size_t k = 0; k < irn_.size(); ++k)
+        mine[k] = {jcn_[k] - 1, irn_[k] - 1};
+      structure = distributed::gather_on_first(mine);
+    }
     if (distributed::rank() == 0) { // the host orders, on the symmetric part's pattern
       const Permutation inverse =
-          gathered.nonZeros() > 0
-              ? metis_inverse_permutation(gathered)
-              : metis_inverse_permutation(
-                    symmetric_ ? M : SparseMatrix(A + SparseMatrix(A.transpose())));
+          gathered ? metis_inverse_permutation(lower_pattern(std::move(structure), A.rows()))
+                   : metis_inverse_permutation(
+                         symmetric_ ? M : SparseMatrix(A + SparseMatrix(A.transpose())));
       ordering_.inverse_permutation.assign(inverse.indices().data(),
                                            inverse.indices().data() + inverse.size());
     } else {
@@ -463,6 +439,29 @@ private:
     }
     id_.perm_in = perm_in_.empty() ? nullptr : perm_in_.data();
     call(1, "analysis");
+  }
+  /// The lower triangle of the symmetric pattern of `structure` ((column, row) pairs, the
+  /// entries the processes hand in, repeats included), n x n, for METIS: LDL^T's entries lie in
+  /// it already; an LU entry and its transpose fall on one entry of it.
+  SparseMatrix lower_pattern(std::vector<std::array<int, 2>> structure, Eigen::Index n) const {
+    if (!symmetric_)
+      for (auto& [col, row] : structure)
+        if (row < col)
+          std::swap(row, col);
+    std::sort(structure.begin(), structure.end());
+    structure.erase(std::unique(structure.begin(), structure.end()), structure.end());
+    SparseMatrix lower(n, n);
+    lower.resizeNonZeros(static_cast<Eigen::Index>(structure.size()));
+    int* outer = lower.outerIndexPtr();
+    std::fill(outer, outer + n + 1, 0);
+    for (std::size_t k = 0; k < structure.size(); ++k) {
+      ++outer[structure[k][0] + 1];
+      lower.innerIndexPtr()[k] = structure[k][1];
+    }
+    for (Eigen::Index c = 0; c < n; ++c)
+      outer[c + 1] += outer[c];
+    std::fill(lower.valuePtr(), lower.valuePtr() + structure.size(), 1.0);
+    return lower;
   }
   /// The factor's entries MUMPS's analysis estimates (INFOG(20); negative: millions).
   double factor_entries() const {

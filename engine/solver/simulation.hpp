@@ -443,7 +443,8 @@ private:
   enum class Gathered { nowhere, on_first, everywhere };
   Gathered gathered_ = Gathered::nowhere;
   /// Over several processes with a pattern per process (Assembler::share): every process's
-  /// contact couplings, gathered with the histories, for the checkpoint's pattern.
+  /// contact couplings, gathered with the histories on the first process alone (empty on the
+  /// others), for the leader's checkpoints.
   std::vector<ContactCoupling> gathered_couplings_;
   double initial_clearance_ = std::numeric_limits<double>::quiet_NaN();
 

@@ -133,7 +133,8 @@ TEST_P(DistributedSolver, SumsTheProcessesOwnPatternsIntoTheWholeSystem) {
   EXPECT_LT((b - A * x).norm() / b.norm(), 1e-12) << solver->name();
   EXPECT_TRUE(same_on_every_process(x));
   // MUMPS's host orders the union of the gathered patterns: the whole system's, so the ordering
-  // (and the fill it decides by) is the one a whole matrix gets.
+  // is the one a whole matrix gets; the fill it decides by is agreed by every process (each
+  // decides alone whether to order afresh, and they must call MUMPS's analysis alike).
   if (c.kind == LinearSolverKind::MUMPS) {
     auto whole = make_linear_solver(c.kind, c.symmetric);
     whole->analyze(A);
@@ -142,7 +143,8 @@ TEST_P(DistributedSolver, SumsTheProcessesOwnPatternsIntoTheWholeSystem) {
       EXPECT_EQ(a.inverse_permutation, w.inverse_permutation);
       EXPECT_GT(a.inverse_permutation.size(), 0u);
     }
-    EXPECT_EQ(a.fill, w.fill);
+    EXPECT_GT(a.fill, 0.0);
+    EXPECT_EQ(distributed::largest(a.fill), distributed::smallest(a.fill));
   }
 }
 
