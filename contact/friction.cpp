@@ -55,10 +55,10 @@ CoulombFriction::CoulombFriction(double mu_s, double mu_k, double eps_t, double 
 
 void spline_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
                      const Matrix3d& control_B, const SegmentBasis& basis_B,
-                     const SplineContactResult& contact,
-                     const SplineContactSensitivity* sensitivity, const FrictionHistory& history,
-                     const CoulombFriction& law, SplineFrictionResult& out,
-                     const FrictionOptions& options, const PairRates* rates) {
+                     const SplineContactState& contact, const SplineContactSensitivity* sensitivity,
+                     const FrictionHistory& history, const CoulombFriction& law,
+                     SplineFrictionResult& out, const FrictionOptions& options,
+                     const PairRates* rates) {
   out.active = false;
   out.slipping = false;
   out.mu = 0.0;

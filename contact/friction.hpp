@@ -167,7 +167,7 @@ struct FrictionHistory {
 
 /// The history of a contact point that has just closed: anchored where it touched, stuck (the
 /// twist anchor, where torsional friction applies, is set by the caller: crossing_angle).
-inline FrictionHistory first_touch(const SplineContactResult& contact) {
+inline FrictionHistory first_touch(const SplineContactState& contact) {
   return {contact.xi_A, contact.xi_B, true, 0.0, true};
 }
 
@@ -192,9 +192,9 @@ struct FrictionOptions {
   FrictionForce force = FrictionForce::AtContactPoints;
 };
 
-/// Friction state, residual and tangent of one contact point. The 18 DOFs are those of
-/// SplineContactResult (A's three control points, then B's, each x, y, z).
-struct SplineFrictionResult {
+/// Friction state of one contact point (SplineFrictionResult adds the residual and tangent; a
+/// contact set keeps those of its active points alone).
+struct SplineFrictionState {
   /// Evaluated: the normal contact is active on a regular point projection. Otherwise every
   /// field below is zero, and `history` is the input's.
   bool active = false;
@@ -217,6 +217,11 @@ struct SplineFrictionResult {
   /// The history to commit if this iterate is accepted: the anchor (kept in stick, returned
   /// onto the cone in slip) and stuck = !slipping.
   FrictionHistory history;
+};
+
+/// Friction state, residual and tangent of one contact point. The 18 DOFs are those of
+/// SplineContactResult (A's three control points, then B's, each x, y, z).
+struct SplineFrictionResult : SplineFrictionState {
   /// Contribution to the internal force vector, N: -kron(w, f) or (dg_t/dx)^T f
   /// (FrictionOptions::force), see the file's comment.
   Eigen::Matrix<double, 18, 1> residual = Eigen::Matrix<double, 18, 1>::Zero();
@@ -248,9 +253,9 @@ struct SplineFrictionResult {
 /// for, and `sensitivity` is null or not valid for it. Writes into `out`; never allocates.
 void spline_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
                      const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B,
-                     const SplineContactResult& contact,
-                     const SplineContactSensitivity* sensitivity, const FrictionHistory& history,
-                     const CoulombFriction& law, SplineFrictionResult& out,
-                     const FrictionOptions& options = {}, const PairRates* rates = nullptr);
+                     const SplineContactState& contact, const SplineContactSensitivity* sensitivity,
+                     const FrictionHistory& history, const CoulombFriction& law,
+                     SplineFrictionResult& out, const FrictionOptions& options = {},
+                     const PairRates* rates = nullptr);
 
 } // namespace yarnsim::contact

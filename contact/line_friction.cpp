@@ -25,7 +25,7 @@ J shape_jet(const SegmentBasis& b, int k, const J& v) {
 void line_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A, double radius_A,
                    const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B, double radius_B,
                    const InterfaceLaw& law, const AllAngleOptions& all_angle,
-                   const SplineContactResult& contact, std::uint16_t with_history,
+                   const SplineContactState& contact, std::uint16_t with_history,
                    const std::array<LineFrictionHistory, kMaxGaussPoints>& history,
                    const CoulombFriction& friction, LineFrictionResult& out,
                    const FrictionOptions& options) {

@@ -85,9 +85,10 @@ struct ProjectionResult {
 /// Most Gauss points of the all-angle contact's line part on one segment (line_contact.hpp).
 inline constexpr int kMaxGaussPoints = 10;
 
-/// Contact state, residual and tangent of one segment pair. The 18 DOFs are the translations of
-/// A's three control points, then B's (each x, y, z).
-struct SplineContactResult {
+/// Contact state of one segment pair: the projection, the gap, the law's force and what the
+/// friction kernels start from (SplineContactResult adds the residual and tangent). A contact
+/// set holds one per candidate pair and the residual and tangent of its active pairs alone.
+struct SplineContactState {
   ProjectionStatus status = ProjectionStatus::NotConverged;
   bool degenerate = false; ///< see ProjectionResult
   int iterations = 0;
@@ -120,6 +121,11 @@ struct SplineContactResult {
   /// the bit is set): what the line contact's friction (line_friction.hpp) starts from.
   std::uint16_t line_mask = 0;
   std::array<double, kMaxGaussPoints> line_u{};
+};
+
+/// Contact state, residual and tangent of one segment pair. The 18 DOFs are the translations of
+/// A's three control points, then B's (each x, y, z).
+struct SplineContactResult : SplineContactState {
   /// Contact contribution to the internal force vector: dU/dx = -f d|g|/dx, N. Added to the
   /// internal forces; for A it is -f N_k(xi_A) n at control point k (the contact pushes A along
   /// +n).

@@ -32,7 +32,7 @@ JetT<H> angle_jet(const Matrix3d& control_A, const SegmentBasis& basis_A, double
 
 /// An active point contact on the regular path (in the all-angle contact: its point part, with a
 /// share s > 0).
-bool regular_point(const SplineContactResult& contact) {
+bool regular_point(const SplineContactState& contact) {
   return contact.point_active && !contact.degenerate && contact.point_evaluated &&
          contact.point_share > 0.0;
 }
@@ -125,7 +125,7 @@ double footprint_radius(double width_A, double width_B) {
 
 double crossing_angle(const Matrix3d& control_A, const SegmentBasis& basis_A,
                       const Matrix3d& control_B, const SegmentBasis& basis_B,
-                      const SplineContactResult& contact) {
+                      const SplineContactState& contact) {
   const Vector3d a = control_A * basis_A.first_local(basis_A.local(contact.xi_A));
   const Vector3d b = control_B * basis_B.first_local(basis_B.local(contact.xi_B));
   return std::atan2(contact.normal.dot(a.cross(b)), a.dot(b));
@@ -133,7 +133,7 @@ double crossing_angle(const Matrix3d& control_A, const SegmentBasis& basis_A,
 
 void torsional_friction(const Matrix3d& control_A, const SegmentBasis& basis_A,
                         const Matrix3d& control_B, const SegmentBasis& basis_B,
-                        const SplineContactResult& contact,
+                        const SplineContactState& contact,
                         const SplineContactSensitivity* sensitivity, const FrictionHistory& history,
                         const TorsionalFriction& law, TorsionalFrictionResult& out,
                         const FrictionOptions& options) {

@@ -110,7 +110,7 @@ TorsionalFriction torsional_law(double mu_s, double mu_k, double eps_t, double r
 /// rad in (-pi, pi]: the anchor of a crossing that has just closed.
 double crossing_angle(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
                       const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B,
-                      const SplineContactResult& contact);
+                      const SplineContactState& contact);
 
 /// The law of the file's comment for one crossing, the scalars both contact formulations share
 /// (surface_torsional_friction.hpp scales the penalty by its share).
@@ -189,7 +189,7 @@ struct TorsionalFrictionResult {
 /// allocates.
 void torsional_friction(const Eigen::Matrix3d& control_A, const SegmentBasis& basis_A,
                         const Eigen::Matrix3d& control_B, const SegmentBasis& basis_B,
-                        const SplineContactResult& contact,
+                        const SplineContactState& contact,
                         const SplineContactSensitivity* sensitivity, const FrictionHistory& history,
                         const TorsionalFriction& law, TorsionalFrictionResult& out,
                         const FrictionOptions& options = {});

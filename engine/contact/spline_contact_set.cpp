@@ -13,6 +13,8 @@
 #include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#include <utility>
 
 namespace yarnsim {
 
@@ -225,7 +227,7 @@ bool SplineContactSet::update_candidates(const State& state) {
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
       if (owns(*definitions_[k], p))
-        work_.push_back({static_cast<int>(k), p, {}});
+        work_.push_back({static_cast<int>(k), p, {}, {}, {}});
   link_warm_starts(work_, committed_);
   return true;
 }
@@ -238,7 +240,6 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   options.zero_unused_tangent = false; // assemble() reads the tangents of active pairs only
   tangents_computed_ = want_tangent;
   if (any_friction_) {
-    sensitivity_.resize(work_.size());
     friction_.resize(work_.size());
     twist_.resize(work_.size());
   }
@@ -277,8 +278,21 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
                               sensitivity);
     }
   };
+  // One list of terms and one scratch result per arena slot, and one for the serial hand-over
+  // pass.
+  const int serial_slot = tbb::this_task_arena::max_concurrency();
+  terms_.resize(static_cast<std::size_t>(std::max<int>(serial_slot + 1, terms_.size())));
+  friction_terms_.resize(terms_.size());
+  scratch_.resize(terms_.size());
+  for (std::vector<Terms>& t : terms_)
+    t.clear();
+  for (std::vector<FrictionTerms>& t : friction_terms_)
+    t.clear();
   const auto project_item = [&](std::size_t w, const contact::ProjectionStart& start) {
-    project_item_into(w, start, work_[w].result, any_friction_ ? &sensitivity_[w] : nullptr);
+    const int slot = tbb::this_task_arena::current_thread_index();
+    Scratch& scratch = scratch_[static_cast<std::size_t>(slot)];
+    project_item_into(w, start, scratch.result, any_friction_ ? &scratch.sensitivity : nullptr);
+    keep(w, scratch.result, scratch.sensitivity, slot, want_tangent);
   };
   // Each item also notes whether it may hand its point over (below): the hand-over pass then
   // collects them from one byte per item, not from the items' results (kilobytes apart).
@@ -290,7 +304,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
                         if (const int k = work_[w].warm; k >= 0)
                           start = {committed_[k].xi_A, committed_[k].xi_B, true};
                         project_item(w, start);
-                        const contact::SplineContactResult& r = work_[w].result;
+                        const contact::SplineContactState& r = work_[w].result;
                         may_hand_over_[w] =
                             r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0;
                       }
@@ -322,7 +336,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
         for (std::size_t h = range.begin(); h != range.end(); ++h) {
           HandOver& hand = hand_overs_[h];
           const Work& item = work_[static_cast<std::size_t>(hand.from)];
-          const contact::SplineContactResult& r = item.result;
+          const contact::SplineContactState& r = item.result;
           const Definition& d = *definitions_[item.definition];
           // The neighbouring segment id on the side the point left (or id itself), -1 for
           // none: the point lies within that neighbour's range (the ranges are equally long in
@@ -351,14 +365,14 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   // The neighbours' projections from the handed points (the buffers keep their capacity).
   if (handed_results_.size() < hand_overs_.size())
     handed_results_.resize(hand_overs_.size());
-  if (any_friction_ && handed_sensitivity_.size() < hand_overs_.size())
+  if (handed_sensitivity_.size() < hand_overs_.size())
     handed_sensitivity_.resize(hand_overs_.size());
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, hand_overs_.size(), 1),
       [&](const tbb::blocked_range<std::size_t>& range) {
         for (std::size_t h = range.begin(); h != range.end(); ++h) {
           const HandOver& hand = hand_overs_[h];
-          const contact::SplineContactResult& r = work_[static_cast<std::size_t>(hand.from)].result;
+          const contact::SplineContactState& r = work_[static_cast<std::size_t>(hand.from)].result;
           project_item_into(static_cast<std::size_t>(hand.to),
                             contact::ProjectionStart{r.xi_A, r.xi_B, true}, handed_results_[h],
                             any_friction_ ? &handed_sensitivity_[h] : nullptr);
@@ -372,9 +386,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
         handed_results_[h].status != contact::ProjectionStatus::Converged)
       continue;
     handed_[to] = 1;
-    work_[to].result = handed_results_[h];
-    if (definitions_[work_[to].definition]->friction)
-      sensitivity_[to] = handed_sensitivity_[h];
+    keep(to, handed_results_[h], handed_sensitivity_[h], serial_slot, want_tangent);
   }
 
   if (any_friction_) {
@@ -390,10 +402,12 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
           for (std::size_t w = range.begin(); w != range.end(); ++w) {
             Work& item = work_[w];
             const Definition& d = *definitions_[item.definition];
-            contact::SplineFrictionResult& f = friction_[w];
-            f.active = false;
+            friction_[w].active = false;
             twist_[w].active = false;
-            if (!d.friction || !item.result.active || !sensitivity_[w].valid)
+            if (!d.friction || !item.result.active)
+              continue;
+            FrictionTerms& terms = friction_terms_of(item);
+            if (!terms.sensitivity.valid)
               continue;
             Eigen::Matrix3d A, B;
             control_points(d, item.pair, x, A, B);
@@ -411,20 +425,27 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
               pair_velocities(d, item.pair, *rates, local_rates);
               pair_rates = &local_rates;
             }
-            contact::spline_friction(A, sa, B, sb, item.result, &sensitivity_[w], item.history,
+            contact::SplineFrictionResult& f =
+                scratch_[static_cast<std::size_t>(tbb::this_task_arena::current_thread_index())]
+                    .friction;
+            contact::spline_friction(A, sa, B, sb, item.result, &terms.sensitivity, item.history,
                                      *d.friction, f, friction_options, pair_rates);
-            if (!d.torsional)
-              continue;
-            contact::TorsionalFrictionResult t;
-            contact::torsional_friction(
-                A, sa, B, sb, item.result, want_tangent ? &sensitivity_[w] : nullptr, item.history,
-                d.torsion(d.width[item.pair.first], d.width[item.pair.second]), t,
-                friction_options);
-            f.residual += t.residual;
+            if (d.torsional) {
+              contact::TorsionalFrictionResult t;
+              contact::torsional_friction(
+                  A, sa, B, sb, item.result, want_tangent ? &terms.sensitivity : nullptr,
+                  item.history, d.torsion(d.width[item.pair.first], d.width[item.pair.second]), t,
+                  friction_options);
+              f.residual += t.residual;
+              if (want_tangent)
+                f.tangent += t.tangent;
+              twist_[w] = {t.active,      t.slipping, t.torque, t.slip_increment,
+                           t.dissipation, t.energy,   t.anchor};
+            }
+            friction_[w] = f;
+            terms.residual = f.residual;
             if (want_tangent)
-              f.tangent += t.tangent;
-            twist_[w] = {t.active,      t.slipping, t.torque, t.slip_increment,
-                         t.dissipation, t.energy,   t.anchor};
+              terms.tangent = f.tangent;
           }
         });
 
@@ -521,10 +542,10 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   add_by_node(assembler.n_nodes(), assembly_nodes_, assembly_offsets_, assembly_incident_,
               [&](std::size_t k, int node) {
                 const std::size_t w = static_cast<std::size_t>(assembly_items_[k]);
-                const Work& item = work_[w];
+                const Terms& terms = terms_of(work_[w]);
                 const std::array<int, 6>& n = assembly_nodes_[k];
-                const contact::SplineFrictionResult* f =
-                    any_friction_ && friction_[w].active ? &friction_[w] : nullptr;
+                const FrictionTerms* f =
+                    any_friction_ && friction_[w].active ? &friction_terms_of(work_[w]) : nullptr;
                 const contact::LineFrictionResult* line =
                     assembly_lines_[k] >= 0
                         ? &line_friction_[static_cast<std::size_t>(assembly_lines_[k])]
@@ -532,7 +553,7 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
                 for (int a = 0; a < 6; ++a) {
                   if (n[a] != node)
                     continue;
-                  residual.segment<3>(6 * node) += item.result.residual.segment<3>(3 * a);
+                  residual.segment<3>(6 * node) += terms.residual.segment<3>(3 * a);
                   if (f)
                     residual.segment<3>(6 * node) += f->residual.segment<3>(3 * a);
                   if (line)
@@ -554,7 +575,7 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
                     const int slot = slots[18 * r + c];
                     if (slot < 0)
                       continue;
-                    double v = item.result.tangent(r, c);
+                    double v = terms.tangent(r, c);
                     if (f)
                       v += f->tangent(r, c);
                     if (line)
@@ -562,6 +583,50 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
                     values[slot] += v;
                   }
               });
+}
+
+void SplineContactSet::keep(std::size_t w, const contact::SplineContactResult& result,
+                            const contact::SplineContactSensitivity& sensitivity, int slot,
+                            bool with_tangent) {
+  Work& item = work_[w];
+  item.result = result;
+  item.terms = item.friction_terms = {};
+  if (!result.active)
+    return;
+  std::vector<Terms>& list = terms_[static_cast<std::size_t>(slot)];
+  Terms& t = list.emplace_back();
+  t.residual = result.residual;
+  if (with_tangent)
+    t.tangent = result.tangent;
+  item.terms = {slot, static_cast<int>(list.size()) - 1};
+  if (!definitions_[item.definition]->friction)
+    return;
+  std::vector<FrictionTerms>& friction = friction_terms_[static_cast<std::size_t>(slot)];
+  friction.emplace_back().sensitivity = sensitivity;
+  item.friction_terms = {slot, static_cast<int>(friction.size()) - 1};
+}
+
+SplineContactSet::FrictionTerms& SplineContactSet::friction_terms_of(const Work& item) {
+  return const_cast<FrictionTerms&>(std::as_const(*this).friction_terms_of(item));
+}
+
+const SplineContactSet::FrictionTerms& SplineContactSet::friction_terms_of(const Work& item) const {
+  if (item.friction_terms.slot < 0)
+    throw std::logic_error(fmt::format("SplineContactSet: pair ({}, {}) of definition {} is in "
+                                       "contact with no friction terms kept",
+                                       item.pair.first, item.pair.second, item.definition));
+  return friction_terms_[static_cast<std::size_t>(item.friction_terms.slot)]
+                        [static_cast<std::size_t>(item.friction_terms.index)];
+}
+
+const SplineContactSet::Terms& SplineContactSet::terms_of(const Work& item) const {
+  if (item.terms.slot < 0)
+    throw std::logic_error(fmt::format("SplineContactSet: pair ({}, {}) of definition {} is in "
+                                       "contact with no residual kept (assembled before a "
+                                       "projection)",
+                                       item.pair.first, item.pair.second, item.definition));
+  return terms_[static_cast<std::size_t>(item.terms.slot)]
+               [static_cast<std::size_t>(item.terms.index)];
 }
 
 int SplineContactSet::work_index(const Key& key) const {
@@ -596,7 +661,7 @@ void SplineContactSet::assign_friction_histories() {
     Work& item = work_[w];
     item.first_touch = false;
     const Definition& d = *definitions_[item.definition];
-    if (!d.friction || !item.result.active || !sensitivity_[w].valid)
+    if (!d.friction || !item.result.active || !friction_terms_of(item).sensitivity.valid)
       continue;
     int from = item.warm >= 0 && committed_[item.warm].friction != 0 ? item.warm : -1;
     if (from < 0) {
@@ -722,7 +787,7 @@ void SplineContactSet::commit() {
         next_committed_.emplace_back(Snapshot::Warm{item.key(), r.xi_A, r.xi_B, r.active});
     const std::size_t w = static_cast<std::size_t>(&item - work_.data());
     if (any_friction_ && friction_[w].active) {
-      const contact::SplineFrictionResult& f = friction_[w];
+      const contact::SplineFrictionState& f = friction_[w];
       warm.anchor_A = f.history.xi_A;
       warm.anchor_B = f.history.xi_B;
       warm.friction = f.slipping ? 2 : 1;
@@ -798,7 +863,7 @@ std::vector<ContactPoint> SplineContactSet::points() const {
     p.pair = {w.pair.first, w.pair.second};
     const std::size_t k = static_cast<std::size_t>(&w - work_.data());
     if (any_friction_ && friction_[k].active) {
-      const contact::SplineFrictionResult& f = friction_[k];
+      const contact::SplineFrictionState& f = friction_[k];
       p.tangential_force = f.force;
       p.friction = f.slipping ? 2 : 1;
       p.slip = w.slip + f.slip_increment;
@@ -836,7 +901,7 @@ SplineContactSet::Snapshot SplineContactSet::snapshot() const {
   out.line_committed = line_committed_;
   out.pairs.reserve(work_.size());
   for (const Work& w : work_) {
-    const contact::SplineContactResult& r = w.result;
+    const contact::SplineContactState& r = w.result;
     out.pairs.push_back({w.key(), r.status, r.degenerate, r.active, r.iterations, r.xi_A, r.xi_B,
                          r.distance, r.gap, r.penetration, r.penetration_rate, r.force, r.potential,
                          r.point_A, r.point_B, r.normal});
@@ -863,7 +928,7 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
     d.searched = snapshot.search_boxes[k];
     d.search->update(d.searched, d.radius, true);
     for (const broadphase::CandidatePair& p : d.search->candidates())
-      work.push_back({static_cast<int>(k), p, {}});
+      work.push_back({static_cast<int>(k), p, {}, {}, {}});
   }
   if (work.size() != snapshot.pairs.size())
     throw std::invalid_argument(
@@ -874,7 +939,7 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
     if (p.key != work[w].key())
       throw std::invalid_argument(fmt::format(
           "contact restart: candidate {} of the saved search differs from the snapshot's", w));
-    contact::SplineContactResult& r = work[w].result;
+    contact::SplineContactState& r = work[w].result;
     r.status = p.status;
     r.degenerate = p.degenerate;
     r.active = p.active;
@@ -911,7 +976,6 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
   // The friction results are not saved: the next evaluation computes them (summary without
   // them until then).
   if (any_friction_) {
-    sensitivity_.assign(work_.size(), {});
     friction_.assign(work_.size(), {});
     twist_.assign(work_.size(), {});
   }
@@ -946,7 +1010,7 @@ void SplineContactSet::summarise() {
            committed_[static_cast<std::size_t>(item.warm)].active;
   };
   const auto left_its_range = [&](const Work& item) {
-    const contact::SplineContactResult& r = item.result;
+    const contact::SplineContactState& r = item.result;
     return r.status == contact::ProjectionStatus::OutOfRange && r.gap < 0 && was_active(item);
   };
   scan_work(work_.size(), scan_blocks_, scan_, [&](std::size_t w) {
@@ -991,7 +1055,7 @@ void SplineContactSet::summarise() {
     const std::size_t w = static_cast<std::size_t>(k);
     if (w >= friction_.size())
       break;
-    const contact::SplineFrictionResult& f = friction_[w];
+    const contact::SplineFrictionState& f = friction_[w];
     if (!f.active)
       continue;
     ++(f.slipping ? summary_.slip : summary_.stick);
@@ -1040,7 +1104,7 @@ double SplineContactSet::closing_limit(const Eigen::Matrix3Xd& du, const Eigen::
                                        double allowance) const {
   return smallest_limit(work_.size(), [&](std::size_t w) {
     const Work& item = work_[w];
-    const contact::SplineContactResult& r = item.result;
+    const contact::SplineContactState& r = item.result;
     constexpr double kNone = std::numeric_limits<double>::infinity();
     if (r.status != contact::ProjectionStatus::Converged || r.active)
       return kNone;

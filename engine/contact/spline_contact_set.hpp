@@ -94,7 +94,7 @@ public:
       double anchor = 0, slip = 0;
       int friction = 1;
     };
-    /// A candidate and the scalar part of its last SplineContactResult.
+    /// A candidate and the scalar part of its last contact state.
     struct Pair {
       Key key;
       contact::ProjectionStatus status;
@@ -117,10 +117,16 @@ public:
 
 private:
   struct Definition;
+  /// Where an active pair's residual and tangent are kept (terms_): the arena slot that
+  /// projected it and its place in that slot's list; slot -1 for a pair out of contact.
+  struct TermsAt {
+    int slot = -1, index = -1;
+  };
   struct Work {
     int definition;
     broadphase::CandidatePair pair;
-    contact::SplineContactResult result;
+    contact::SplineContactState result;
+    TermsAt terms, friction_terms;
     int warm = -1; ///< index of its warm start in committed_, or -1 (link_warm_starts)
     /// Friction of an active point contact: the history this evaluation holds fixed (its own
     /// committed one, one handed over from a neighbouring pair, or a first touch) and the slip
@@ -170,12 +176,43 @@ private:
   std::vector<contact::SplineCurve> curves_; ///< per spline
   std::vector<std::unique_ptr<Definition>> definitions_;
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
+  /// The residual (18) and tangent (18 x 18) of the pairs in contact at the last projection, held
+  /// apart from the work list, whose candidates are mostly out of reach (2.7 kB a candidate
+  /// otherwise): one list per arena slot, each pair's appended by the thread that projected it,
+  /// the hand-over pass's in the last list. Cleared at each projection (kept for their capacity).
+  /// Where the definition has friction, the point contact's sensitivity and the friction
+  /// kernel's residual and tangent (1.5 kB more) are kept likewise (friction_terms_).
+  struct Terms {
+    Eigen::Matrix<double, 18, 1> residual;
+    Eigen::Matrix<double, 18, 18> tangent;
+  };
+  struct FrictionTerms {
+    contact::SplineContactSensitivity sensitivity;
+    Eigen::Matrix<double, 18, 1> residual;
+    Eigen::Matrix<double, 18, 18> tangent;
+  };
+  std::vector<std::vector<Terms>> terms_;
+  std::vector<std::vector<FrictionTerms>> friction_terms_;
+  /// Per arena slot, what a pair's kernels write before keep() takes their state and terms.
+  struct Scratch {
+    contact::SplineContactResult result;
+    contact::SplineContactSensitivity sensitivity;
+    contact::SplineFrictionResult friction;
+  };
+  std::vector<Scratch> scratch_;
+  /// Work item w's state from a kernel's result; where the pair is in contact, its residual and
+  /// tangent (where computed) appended to slot's list of terms_, and where its definition has
+  /// friction, its `sensitivity` to slot's list of friction_terms_.
+  void keep(std::size_t w, const contact::SplineContactResult& result,
+            const contact::SplineContactSensitivity& sensitivity, int slot, bool with_tangent);
+  const Terms& terms_of(const Work& item) const;
+  FrictionTerms& friction_terms_of(const Work& item);
+  const FrictionTerms& friction_terms_of(const Work& item) const;
   bool any_friction_ = false;
   bool damped_ = false;
-  /// Per work item, when a definition has friction: the point contact's sensitivity (valid for
-  /// an active point contact alone) and the friction result (active where it was evaluated).
-  std::vector<contact::SplineContactSensitivity> sensitivity_;
-  std::vector<contact::SplineFrictionResult> friction_;
+  /// Per work item, when a definition has friction: the friction state (active where it was
+  /// evaluated; its residual and tangent in friction_terms_).
+  std::vector<contact::SplineFrictionState> friction_;
   /// Per work item, where the definition has torsional friction: the torsional result's scalars
   /// (its residual and tangent are added to friction_'s).
   struct Twist {
