@@ -96,10 +96,10 @@ struct SurfaceProjectionResult {
   double theta_B = 0.0;
 };
 
-/// Contact state, residual and tangent of one surface pair. The 24 DOFs follow eq. 2: surface
-/// A's node A translation, node B translation, node A Rodrigues increment, node B Rodrigues
-/// increment (3 each), then the same for surface B.
-struct SurfaceContactResult {
+/// Contact state of one surface pair: the projection, the gap, the law's force and what the
+/// friction kernels start from (SurfaceContactResult adds the residual and tangent). A contact
+/// set holds one per candidate pair and the residual and tangent of its active pairs alone.
+struct SurfaceContactState {
   ProjectionStatus status = ProjectionStatus::NotConverged;
   SurfaceDegeneration degeneration = SurfaceDegeneration::None;
   int iterations = 0;
@@ -128,6 +128,12 @@ struct SurfaceContactResult {
   double share = 1.0;
   double share_A = 1.0; ///< A's factor of `share` (its share at zeta_A)
   double share_B = 1.0; ///< B's factor of `share`
+};
+
+/// Contact state, residual and tangent of one surface pair. The 24 DOFs follow eq. 2: surface
+/// A's node A translation, node B translation, node A Rodrigues increment, node B Rodrigues
+/// increment (3 each), then the same for surface B.
+struct SurfaceContactResult : SurfaceContactState {
   /// Contact contribution to the internal force vector, dU/dd = -f grad g_n (N for
   /// translations, N m per unit Rodrigues parameter for rotations): added to the internal
   /// forces. The engine's Newton unknowns are additive increments of alpha, so this is the

@@ -50,7 +50,7 @@ double sigma(int surface) {
 } // namespace
 
 void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
-                      const SurfaceContactResult& contact,
+                      const SurfaceContactState& contact,
                       const SurfaceContactSensitivity* sensitivity,
                       const SurfaceFrictionHistory& history, const CoulombFriction& law,
                       SurfaceFrictionResult& out, const FrictionOptions& options,

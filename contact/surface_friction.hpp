@@ -112,14 +112,13 @@ struct SurfaceFrictionHistory {
 
 /// The history of a contact point that has just closed: anchored where it touched, stuck (the
 /// twist anchor, where torsional friction applies, is set by the caller: surface_crossing_angle).
-inline SurfaceFrictionHistory first_touch(const SurfaceContactResult& contact) {
+inline SurfaceFrictionHistory first_touch(const SurfaceContactState& contact) {
   return {contact.zeta_A, contact.theta_A, contact.zeta_B, contact.theta_B, true};
 }
 
-/// Friction state, residual and tangent of one surface contact point. The 24 DOFs are those of
-/// SurfaceContactResult (per surface: node A and B translations, node A and B Rodrigues
-/// increments).
-struct SurfaceFrictionResult {
+/// Friction state of one surface contact point (SurfaceFrictionResult adds the residual and
+/// tangent; a contact set keeps those of its active points alone).
+struct SurfaceFrictionState {
   /// Evaluated: the normal contact is active on a regular projection. Otherwise every field
   /// below is zero, and `history` is the input's.
   bool active = false;
@@ -138,6 +137,12 @@ struct SurfaceFrictionResult {
   /// The history to commit if this iterate is accepted: the anchor (kept in stick, returned
   /// onto the cone in slip; thetas in [0, 2 pi)) and stuck = !slipping.
   SurfaceFrictionHistory history;
+};
+
+/// Friction state, residual and tangent of one surface contact point. The 24 DOFs are those of
+/// SurfaceContactResult (per surface: node A and B translations, node A and B Rodrigues
+/// increments).
+struct SurfaceFrictionResult : SurfaceFrictionState {
   /// Contribution to the internal force vector: -G^T f (N for translations, N m per unit
   /// Rodrigues parameter), see the file's comment.
   Eigen::Matrix<double, 24, 1> residual = Eigen::Matrix<double, 24, 1>::Zero();
@@ -164,7 +169,7 @@ struct SurfaceFrictionResult {
 /// Throws std::invalid_argument if the tangent is asked for and `sensitivity` is null or not
 /// valid. Writes into `out`; never allocates.
 void surface_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
-                      const SurfaceContactResult& contact,
+                      const SurfaceContactState& contact,
                       const SurfaceContactSensitivity* sensitivity,
                       const SurfaceFrictionHistory& history, const CoulombFriction& law,
                       SurfaceFrictionResult& out, const FrictionOptions& options = {},

@@ -196,7 +196,7 @@ void projection_residual(const SurfaceTangents<H, N>& a, const SurfaceTangents<H
   r[3] = -dot(b.d_theta, g);
 }
 
-Vec4 coordinates(const SurfaceContactResult& contact) {
+Vec4 coordinates(const SurfaceContactState& contact) {
   return {contact.zeta_A, contact.theta_A, contact.zeta_B, contact.theta_B};
 }
 
@@ -227,7 +227,7 @@ Mat4 inverse_projection_jacobian(const SuperEllipticalCylinder& A, const SuperEl
 }
 
 /// s_B: the sign that turns Gamma_B,theta x Gamma_B,zeta along the contact normal.
-double normal_sign(const SuperEllipticalCylinder& B, const SurfaceContactResult& contact) {
+double normal_sign(const SuperEllipticalCylinder& B, const SurfaceContactState& contact) {
   const SuperEllipticalCylinder::Point p = B.evaluate(contact.zeta_B, contact.theta_B);
   return p.d_theta.cross(p.d_zeta).dot(contact.normal) < 0.0 ? -1.0 : 1.0;
 }
@@ -235,7 +235,7 @@ double normal_sign(const SuperEllipticalCylinder& B, const SurfaceContactResult&
 /// theta as a jet of the 24 DOFs (the header's "Derivatives").
 template <int H>
 JetT<H, 24> angle_jet(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
-                      const SurfaceContactResult& contact) {
+                      const SurfaceContactState& contact) {
   using J = JetT<H, 24>;
   const Vec4 c0 = coordinates(contact);
   const Mat4 inverse = inverse_projection_jacobian(A, B, c0);
@@ -262,13 +262,13 @@ JetT<H, 24> angle_jet(const SuperEllipticalCylinder& A, const SuperEllipticalCyl
   return atan2_jet(triple(nu, ta.d_zeta, tb.d_zeta), sqrt(dot(nu, nu)) * dot(ta.d_zeta, tb.d_zeta));
 }
 
-bool regular(const SurfaceContactResult& contact) {
+bool regular(const SurfaceContactState& contact) {
   return contact.active && contact.degeneration == SurfaceDegeneration::None && contact.share > 0.0;
 }
 
 /// The law (the header's "Law") and the residual; the tangent where the jet carries a Hessian.
 template <int H>
-void evaluate_law(const JetT<H, 24>& theta, const SurfaceContactResult& contact,
+void evaluate_law(const JetT<H, 24>& theta, const SurfaceContactState& contact,
                   const SurfaceContactSensitivity* sensitivity,
                   const SurfaceFrictionHistory& history, const TorsionalFriction& law,
                   SurfaceTorsionalFrictionResult& out) {
@@ -304,7 +304,7 @@ void evaluate_law(const JetT<H, 24>& theta, const SurfaceContactResult& contact,
 } // namespace
 
 double surface_crossing_angle(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
-                              const SurfaceContactResult& contact) {
+                              const SurfaceContactState& contact) {
   if (!regular(contact)) {
     std::ostringstream msg;
     msg << "surface_crossing_angle: expected an active contact on the regular path; found "
@@ -319,7 +319,7 @@ double surface_crossing_angle(const SuperEllipticalCylinder& A, const SuperEllip
 }
 
 void surface_torsional_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
-                                const SurfaceContactResult& contact,
+                                const SurfaceContactState& contact,
                                 const SurfaceContactSensitivity* sensitivity,
                                 const SurfaceFrictionHistory& history, const TorsionalFriction& law,
                                 SurfaceTorsionalFrictionResult& out,

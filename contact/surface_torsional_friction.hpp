@@ -82,7 +82,7 @@ namespace yarnsim::contact {
 /// (-pi, pi]: the anchor of a crossing that has just closed. Throws std::invalid_argument if the
 /// contact is not active on the regular path.
 double surface_crossing_angle(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
-                              const SurfaceContactResult& contact);
+                              const SurfaceContactState& contact);
 
 /// Torsional friction state, residual and tangent of one surface contact point. The 24 DOFs
 /// are those of SurfaceContactResult (per surface: node A and B translations, node A and B
@@ -121,7 +121,7 @@ struct SurfaceTorsionalFrictionResult {
 /// tangent is asked for and `sensitivity` is null or not valid. Writes into `out`; never
 /// allocates.
 void surface_torsional_friction(const SuperEllipticalCylinder& A, const SuperEllipticalCylinder& B,
-                                const SurfaceContactResult& contact,
+                                const SurfaceContactState& contact,
                                 const SurfaceContactSensitivity* sensitivity,
                                 const SurfaceFrictionHistory& history, const TorsionalFriction& law,
                                 SurfaceTorsionalFrictionResult& out,

@@ -13,7 +13,9 @@
 #include <stdexcept>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 #include <tuple>
+#include <utility>
 
 namespace yarnsim {
 
@@ -177,7 +179,7 @@ bool SurfaceContactSet::update_candidates(const State& state) {
   for (std::size_t k = 0; k < definitions_.size(); ++k)
     for (const broadphase::CandidatePair& p : definitions_[k]->search->candidates())
       if (owns(*definitions_[k], p))
-        work_.push_back({static_cast<int>(k), p, {}});
+        work_.push_back({static_cast<int>(k), p, {}, {}, {}});
   link_warm_starts(work_, committed_);
   by_second_.resize(work_.size());
   for (std::size_t i = 0; i < by_second_.size(); ++i)
@@ -196,19 +198,29 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
   contact::SurfaceContactOptions options;
   options.compute_tangent = want_tangent;
   if (any_friction_) {
-    sensitivity_.resize(work_.size());
     friction_.resize(work_.size());
     twist_.resize(work_.size());
-    if (any_torsional_)
-      torsion_.resize(work_.size());
   }
+  // One list of terms and one scratch per arena slot.
+  const std::size_t slots = static_cast<std::size_t>(tbb::this_task_arena::max_concurrency());
+  terms_.resize(std::max(slots, terms_.size()));
+  friction_terms_.resize(terms_.size());
+  scratch_.resize(terms_.size());
+  for (std::vector<Terms>& t : terms_)
+    t.clear();
+  for (std::vector<FrictionTerms>& t : friction_terms_)
+    t.clear();
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, work_.size(), 8),
       [&](const tbb::blocked_range<std::size_t>& range) {
         for (std::size_t w = range.begin(); w != range.end(); ++w) {
           Work& item = work_[w];
           const Definition& d = *definitions_[item.definition];
-          contact::SurfaceContactSensitivity* sensitivity = d.friction ? &sensitivity_[w] : nullptr;
+          const int slot = tbb::this_task_arena::current_thread_index();
+          Scratch& scratch = scratch_[static_cast<std::size_t>(slot)];
+          contact::SurfaceContactResult& result = scratch.result;
+          contact::SurfaceContactSensitivity* sensitivity =
+              d.friction ? &scratch.sensitivity : nullptr;
           contact::SurfaceProjectionStart start;
           if (item.warm >= 0) {
             const Snapshot::Warm& c = committed_[item.warm];
@@ -217,15 +229,14 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
           try {
             const auto A = cylinder(d, item.pair.first, state);
             const auto B = cylinder(d, item.pair.second, state);
-            contact::surface_contact(A, B, start, *d.law, item.result, options, nullptr,
-                                     sensitivity);
-            if (item.result.status == contact::ProjectionStatus::Jumped) {
+            contact::surface_contact(A, B, start, *d.law, result, options, nullptr, sensitivity);
+            if (result.status == contact::ProjectionStatus::Jumped) {
               // The warm start led far away. Where the last solution has vanished (two critical
               // points of the distance met and annihilated, as happens on the flat faces of
               // wide ellipses), no smaller step brings it back: the solution a cold start finds
               // from the geometry alone is then the pair's contact. The jump stands (and vetoes
               // the increment) only if the cold start finds another point.
-              const contact::SurfaceContactResult& warm = item.result;
+              const contact::SurfaceContactResult& warm = result;
               contact::SurfaceContactSensitivity cold_sensitivity;
               const auto cold = contact::surface_contact(A, B, {}, *d.law, options, nullptr,
                                                          sensitivity ? &cold_sensitivity : nullptr);
@@ -237,18 +248,19 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
                       tolerance &&
                   std::abs(std::remainder(cold.theta_B - warm.theta_B, 2 * std::numbers::pi)) <
                       tolerance) {
-                item.result = cold;
+                result = cold;
                 if (sensitivity)
                   *sensitivity = cold_sensitivity;
               }
             }
           } catch (const std::invalid_argument&) {
             // Non-finite node data (a diverging iterate): the pair cannot be projected.
-            item.result = {};
-            item.result.status = contact::ProjectionStatus::NotConverged;
+            result = {};
+            result.status = contact::ProjectionStatus::NotConverged;
             if (sensitivity)
               sensitivity->valid = false;
           }
+          keep(w, result, scratch.sensitivity, slot, want_tangent);
         }
       });
 
@@ -262,7 +274,8 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
     for (std::size_t w = 0; w < work_.size(); ++w) {
       Work& item = work_[w];
       item.first_touch = false;
-      if (!definitions_[item.definition]->friction || !item.result.active || !sensitivity_[w].valid)
+      if (!definitions_[item.definition]->friction || !item.result.active ||
+          !friction_terms_of(item).sensitivity.valid)
         continue;
       const Snapshot::Warm* c = item.warm >= 0 ? &committed_[item.warm] : nullptr;
       if (c != nullptr && c->friction != 0) {
@@ -285,10 +298,12 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
           for (std::size_t w = range.begin(); w != range.end(); ++w) {
             Work& item = work_[w];
             const Definition& d = *definitions_[item.definition];
-            contact::SurfaceFrictionResult& f = friction_[w];
-            f.active = false;
+            friction_[w].active = false;
             twist_[w].active = false;
-            if (!d.friction || !item.result.active || !sensitivity_[w].valid)
+            if (!d.friction || !item.result.active)
+              continue;
+            FrictionTerms& terms = friction_terms_of(item);
+            if (!terms.sensitivity.valid)
               continue;
             const auto A = cylinder(d, item.pair.first, state);
             const auto B = cylinder(d, item.pair.second, state);
@@ -316,22 +331,29 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
                 }
               pair_rates.velocity_per_displacement = rates->velocity_per_displacement;
             }
-            contact::surface_friction(A, B, item.result, want_tangent ? &sensitivity_[w] : nullptr,
-                                      item.history, *d.friction, f, friction_options,
-                                      damped ? &pair_rates : nullptr);
-            if (!d.torsional)
-              continue;
-            const Surface& sa = model_.surfaces[d.surface[item.pair.first]];
-            const Surface& sb = model_.surfaces[d.surface[item.pair.second]];
-            contact::SurfaceTorsionalFrictionResult& t = torsion_[w];
-            contact::surface_torsional_friction(
-                A, B, item.result, want_tangent ? &sensitivity_[w] : nullptr, item.history,
-                d.torsion(2 * sa.a, 2 * sb.a), t, friction_options);
-            f.residual += t.residual;
+            Scratch& scratch =
+                scratch_[static_cast<std::size_t>(tbb::this_task_arena::current_thread_index())];
+            contact::SurfaceFrictionResult& f = scratch.friction;
+            contact::surface_friction(
+                A, B, item.result, want_tangent ? &terms.sensitivity : nullptr, item.history,
+                *d.friction, f, friction_options, damped ? &pair_rates : nullptr);
+            if (d.torsional) {
+              const Surface& sa = model_.surfaces[d.surface[item.pair.first]];
+              const Surface& sb = model_.surfaces[d.surface[item.pair.second]];
+              contact::SurfaceTorsionalFrictionResult& t = scratch.torsion;
+              contact::surface_torsional_friction(
+                  A, B, item.result, want_tangent ? &terms.sensitivity : nullptr, item.history,
+                  d.torsion(2 * sa.a, 2 * sb.a), t, friction_options);
+              f.residual += t.residual;
+              if (want_tangent)
+                f.tangent += t.tangent;
+              twist_[w] = {t.active,      t.slipping, t.torque, t.slip_increment,
+                           t.dissipation, t.energy,   t.anchor};
+            }
+            friction_[w] = f;
+            terms.residual = f.residual;
             if (want_tangent)
-              f.tangent += t.tangent;
-            twist_[w] = {t.active,      t.slipping, t.torque, t.slip_increment,
-                         t.dissipation, t.energy,   t.anchor};
+              terms.tangent = f.tangent;
           }
         });
   }
@@ -362,7 +384,7 @@ void SurfaceContactSet::summarise() {
   // In parallel (scan_work); the active items are then summed here in their order.
   scan_work(work_.size(), scan_blocks_, scan_, [&](std::size_t w) {
     const Work& item = work_[w];
-    const contact::SurfaceContactResult& r = item.result;
+    const contact::SurfaceContactState& r = item.result;
     const bool was_active = item.warm >= 0 && committed_[item.warm].active;
     ItemScan out = scan_result(r, was_active);
     out.listed = r.active || (any_friction_ && w < friction_.size() && friction_[w].active);
@@ -397,7 +419,7 @@ void SurfaceContactSet::summarise() {
     const std::size_t k = static_cast<std::size_t>(listed);
     if (k >= friction_.size())
       break;
-    const contact::SurfaceFrictionResult& f = friction_[k];
+    const contact::SurfaceFrictionState& f = friction_[k];
     if (!f.active)
       continue;
     const Work& w = work_[k];
@@ -472,6 +494,51 @@ void SurfaceContactSet::share_split_contacts() {
     share(work_[by_second_[k]], work_[by_second_[k + 1]], false);
 }
 
+void SurfaceContactSet::keep(std::size_t w, const contact::SurfaceContactResult& result,
+                             const contact::SurfaceContactSensitivity& sensitivity, int slot,
+                             bool with_tangent) {
+  Work& item = work_[w];
+  item.result = result;
+  item.terms = item.friction_terms = {};
+  if (!result.active)
+    return;
+  std::vector<Terms>& list = terms_[static_cast<std::size_t>(slot)];
+  Terms& t = list.emplace_back();
+  t.residual = result.residual;
+  if (with_tangent)
+    t.tangent = result.tangent;
+  item.terms = {slot, static_cast<int>(list.size()) - 1};
+  if (!definitions_[item.definition]->friction)
+    return;
+  std::vector<FrictionTerms>& friction = friction_terms_[static_cast<std::size_t>(slot)];
+  friction.emplace_back().sensitivity = sensitivity;
+  item.friction_terms = {slot, static_cast<int>(friction.size()) - 1};
+}
+
+const SurfaceContactSet::Terms& SurfaceContactSet::terms_of(const Work& item) const {
+  if (item.terms.slot < 0)
+    throw std::logic_error(fmt::format("SurfaceContactSet: pair ({}, {}) of definition {} is in "
+                                       "contact with no residual kept (assembled before a "
+                                       "projection)",
+                                       item.pair.first, item.pair.second, item.definition));
+  return terms_[static_cast<std::size_t>(item.terms.slot)]
+               [static_cast<std::size_t>(item.terms.index)];
+}
+
+SurfaceContactSet::FrictionTerms& SurfaceContactSet::friction_terms_of(const Work& item) {
+  return const_cast<FrictionTerms&>(std::as_const(*this).friction_terms_of(item));
+}
+
+const SurfaceContactSet::FrictionTerms&
+SurfaceContactSet::friction_terms_of(const Work& item) const {
+  if (item.friction_terms.slot < 0)
+    throw std::logic_error(fmt::format("SurfaceContactSet: pair ({}, {}) of definition {} is in "
+                                       "contact with no friction terms kept",
+                                       item.pair.first, item.pair.second, item.definition));
+  return friction_terms_[static_cast<std::size_t>(item.friction_terms.slot)]
+                        [static_cast<std::size_t>(item.friction_terms.index)];
+}
+
 std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
   std::vector<ContactCoupling> out;
   for (const Work& item : work_) {
@@ -506,6 +573,7 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
               [&](std::size_t i, int node) {
                 const std::size_t k = static_cast<std::size_t>(assembly_items_[i]);
                 const Work& item = work_[k];
+                const Terms& terms = terms_of(item);
                 const std::array<int, 4>& n = assembly_nodes_[i];
                 // Kernel order per surface X (0: A, 1: B): x_first, x_last, alpha_first,
                 // alpha_last.
@@ -514,13 +582,12 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
                   for (int j = 0; j < 2; ++j) {
                     if (n[2 * X + j] != node)
                       continue;
-                    residual.segment<3>(6 * node) +=
-                        w * item.result.residual.segment<3>(12 * X + 3 * j);
+                    residual.segment<3>(6 * node) += w * terms.residual.segment<3>(12 * X + 3 * j);
                     residual.segment<3>(6 * node + 3) +=
-                        w * item.result.residual.segment<3>(12 * X + 6 + 3 * j);
+                        w * terms.residual.segment<3>(12 * X + 6 + 3 * j);
                   }
-                const contact::SurfaceFrictionResult* f =
-                    any_friction_ && friction_[k].active ? &friction_[k] : nullptr;
+                const FrictionTerms* f =
+                    any_friction_ && friction_[k].active ? &friction_terms_of(item) : nullptr;
                 if (f)
                   for (int X = 0; X < 2; ++X)
                     for (int j = 0; j < 2; ++j) {
@@ -543,8 +610,8 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
                     const int slot = slots[24 * c + r];
                     if (slot < 0)
                       continue;
-                    values[slot] += f ? w * (item.result.tangent(r, c) + f->tangent(r, c))
-                                      : w * item.result.tangent(r, c);
+                    values[slot] +=
+                        f ? w * (terms.tangent(r, c) + f->tangent(r, c)) : w * terms.tangent(r, c);
                   }
                 }
               });
@@ -565,7 +632,7 @@ void SurfaceContactSet::commit() {
     const std::size_t k = static_cast<std::size_t>(&item - work_.data());
     const contact::SurfaceFrictionHistory* h = nullptr;
     if (any_friction_ && friction_[k].active) {
-      const contact::SurfaceFrictionResult& f = friction_[k];
+      const contact::SurfaceFrictionState& f = friction_[k];
       h = &f.history;
       warm.friction = f.slipping ? 2 : 1;
       warm.slip = item.slip + f.slip_increment;
@@ -618,7 +685,7 @@ std::vector<ContactPoint> SurfaceContactSet::points() const {
     p.pair = {w.pair.first, w.pair.second};
     const std::size_t k = static_cast<std::size_t>(&w - work_.data());
     if (any_friction_ && friction_[k].active) {
-      const contact::SurfaceFrictionResult& f = friction_[k];
+      const contact::SurfaceFrictionState& f = friction_[k];
       p.tangential_force = w.factor * f.force;
       p.friction = f.slipping ? 2 : 1;
       p.slip = w.slip + f.slip_increment;
@@ -640,7 +707,7 @@ SurfaceContactSet::Snapshot SurfaceContactSet::snapshot() const {
   out.committed = committed_;
   out.pairs.reserve(work_.size());
   for (const Work& w : work_) {
-    const contact::SurfaceContactResult& r = w.result;
+    const contact::SurfaceContactState& r = w.result;
     out.pairs.push_back({Key{w.definition, w.pair.first, w.pair.second},
                          r.status,
                          r.degeneration,
@@ -685,7 +752,7 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
           model_.surface_contacts[k].name, d.boxes.size(), snapshot.search_boxes[k].size()));
     d.search->update(snapshot.search_boxes[k], d.radius, true);
     for (const broadphase::CandidatePair& p : d.search->candidates())
-      work.push_back({static_cast<int>(k), p, {}});
+      work.push_back({static_cast<int>(k), p, {}, {}, {}});
   }
   if (work.size() != snapshot.pairs.size())
     throw std::invalid_argument(fmt::format(
@@ -698,7 +765,7 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
           fmt::format("surface contact restart: candidate {} of the saved search differs from the "
                       "snapshot's",
                       w));
-    contact::SurfaceContactResult& r = work[w].result;
+    contact::SurfaceContactState& r = work[w].result;
     r.status = p.status;
     r.degeneration = p.degeneration;
     r.iterations = p.iterations;
@@ -740,11 +807,8 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
   // The friction results are not saved: the next evaluation computes them (the saved summary
   // holds their figures until then).
   if (any_friction_) {
-    sensitivity_.assign(work_.size(), {});
     friction_.assign(work_.size(), {});
     twist_.assign(work_.size(), {});
-    if (any_torsional_)
-      torsion_.assign(work_.size(), {});
   }
   // A share of the pairs (set_owned): the next search's work list keeps this process's alone
   // (the summary above is the whole snapshot's, as saved).
@@ -756,7 +820,7 @@ double SurfaceContactSet::closing_limit(const Eigen::Matrix3Xd& du, const Eigen:
                                         double allowance) const {
   return smallest_limit(work_.size(), [&](std::size_t w) {
     const Work& item = work_[w];
-    const contact::SurfaceContactResult& r = item.result;
+    const contact::SurfaceContactState& r = item.result;
     constexpr double kNone = std::numeric_limits<double>::infinity();
     if (r.status != contact::ProjectionStatus::Converged || r.active)
       return kNone;

@@ -101,10 +101,16 @@ public:
 
 private:
   struct Definition;
+  /// Where an active pair's residual and tangent are kept (terms_): the arena slot that
+  /// projected it and its place in that slot's list; slot -1 for a pair out of contact.
+  struct TermsAt {
+    int slot = -1, index = -1;
+  };
   struct Work {
     int definition;
     broadphase::CandidatePair pair;
-    contact::SurfaceContactResult result;
+    contact::SurfaceContactState result;
+    TermsAt terms, friction_terms;
     /// Factor on the pair's force where it and a neighbour's pair find two close points in a
     /// valley (share_split_contacts); 1 elsewhere.
     double factor = 1.0;
@@ -148,21 +154,51 @@ private:
   std::vector<Snapshot::Warm> committed_;
   std::vector<Snapshot::Warm> next_committed_; ///< commit()'s buffer, kept for its capacity
   bool any_friction_ = false;
-  /// Per work item, when a definition has friction: the contact's sensitivity (valid for an
-  /// active regular contact) and the friction result (active where it was evaluated).
-  std::vector<contact::SurfaceContactSensitivity> sensitivity_;
-  std::vector<contact::SurfaceFrictionResult> friction_;
+  /// Per work item, when a definition has friction: the friction state (active where it was
+  /// evaluated; its residual and tangent in friction_terms_).
+  std::vector<contact::SurfaceFrictionState> friction_;
+  /// The residual (24) and tangent (24 x 24) of the pairs in contact at the last projection,
+  /// held apart from the work list, whose candidates are mostly out of reach (4.6 kB a
+  /// candidate otherwise): one list per arena slot, each pair's appended by the thread that
+  /// projected it. Where the definition has friction, the contact's sensitivity and the friction
+  /// (and torsional friction) terms likewise. Cleared at each projection (kept for their
+  /// capacity).
+  struct Terms {
+    Eigen::Matrix<double, 24, 1> residual;
+    Eigen::Matrix<double, 24, 24> tangent;
+  };
+  struct FrictionTerms {
+    contact::SurfaceContactSensitivity sensitivity;
+    Eigen::Matrix<double, 24, 1> residual;
+    Eigen::Matrix<double, 24, 24> tangent;
+  };
+  std::vector<std::vector<Terms>> terms_;
+  std::vector<std::vector<FrictionTerms>> friction_terms_;
+  /// Per arena slot, what a pair's kernels write before keep() takes their state and terms.
+  struct Scratch {
+    contact::SurfaceContactResult result;
+    contact::SurfaceContactSensitivity sensitivity;
+    contact::SurfaceFrictionResult friction;
+    contact::SurfaceTorsionalFrictionResult torsion;
+  };
+  std::vector<Scratch> scratch_;
+  /// Work item w's state from a kernel's result; where the pair is in contact, its residual and
+  /// tangent (where computed) appended to slot's list of terms_, and where its definition has
+  /// friction, its `sensitivity` to slot's list of friction_terms_.
+  void keep(std::size_t w, const contact::SurfaceContactResult& result,
+            const contact::SurfaceContactSensitivity& sensitivity, int slot, bool with_tangent);
+  const Terms& terms_of(const Work& item) const;
+  FrictionTerms& friction_terms_of(const Work& item);
+  const FrictionTerms& friction_terms_of(const Work& item) const;
   bool any_torsional_ = false;
   bool damped_ = false; ///< some definition has tangential damping
   /// Per work item: the torsional result's scalars (active where it was evaluated; its residual
-  /// and tangent are added to friction_'s), and, where a definition has torsional friction, the
-  /// kernel's output buffer (its 24 x 24 tangent kept out of the parallel loop's stack).
+  /// and tangent are added to the friction terms).
   struct Twist {
     bool active = false, slipping = false;
     double torque = 0, slip_increment = 0, dissipation = 0, energy = 0, anchor = 0;
   };
   std::vector<Twist> twist_;
-  std::vector<contact::SurfaceTorsionalFrictionResult> torsion_;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   int candidates_version_ = 0;
   /// The node whose process projects pair p of definition d over several (pair_owner_node), and
