@@ -295,7 +295,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
     keep(w, scratch.result, scratch.sensitivity, slot, want_tangent);
   };
   // Each item also notes whether it may hand its point over (below): the hand-over pass then
-  // collects them from one byte per item, not from the items' results (kilobytes apart).
+  // collects them from one byte per item, not from the items' states (hundreds of bytes apart).
   may_hand_over_.assign(work_.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 16),
                     [&](const tbb::blocked_range<std::size_t>& range) {
