@@ -329,6 +329,82 @@ void link_warm_starts(std::vector<Work>& work, const std::vector<Committed>& com
   }
 }
 
+/// Where a work item's entry lies in a SlotLists: the arena slot that appended it and its place
+/// in that slot's list; slot -1 for none.
+struct SlotEntry {
+  int slot = -1, index = -1;
+};
+
+/// Entries appended per arena slot: inside a parallel loop each thread appends to its own slot's
+/// list (tbb::this_task_arena::current_thread_index()), a serial pass to a slot past them, and a
+/// work item keeps where its entry is (SlotEntry). A contact set keeps there the residual and
+/// tangent of its pairs in contact, apart from its work list, whose candidates are mostly out of
+/// reach (keep_terms). Cleared at each projection; the lists keep their capacity.
+template <class Entry>
+class SlotLists {
+public:
+  /// At least `slots` lists, every one empty.
+  void reset(std::size_t slots) {
+    lists_.resize(std::max(slots, lists_.size()));
+    for (std::vector<Entry>& list : lists_)
+      list.clear();
+  }
+  /// A new entry at the end of `slot`'s list; `where` is set to it.
+  Entry& append(int slot, SlotEntry& where) {
+    std::vector<Entry>& list = lists_[static_cast<std::size_t>(slot)];
+    Entry& entry = list.emplace_back();
+    where = {slot, static_cast<int>(list.size()) - 1};
+    return entry;
+  }
+  const Entry& at(SlotEntry where) const {
+    return lists_[static_cast<std::size_t>(where.slot)][static_cast<std::size_t>(where.index)];
+  }
+  Entry& at(SlotEntry where) {
+    return lists_[static_cast<std::size_t>(where.slot)][static_cast<std::size_t>(where.index)];
+  }
+
+private:
+  std::vector<std::vector<Entry>> lists_;
+};
+
+/// A contact pair's terms kept apart from its work item: the residual (N entries) and tangent
+/// (N x N) of the pair's kernel (N = 18 for a spline pair, 24 for a surface pair).
+template <int N>
+struct PairTerms {
+  Eigen::Matrix<double, N, 1> residual;
+  Eigen::Matrix<double, N, N> tangent;
+};
+
+/// Where the pair's definition has friction: the normal contact's sensitivity, and the residual
+/// and tangent of the friction kernels (point and torsional friction summed).
+template <int N, class Sensitivity>
+struct FrictionPairTerms {
+  Sensitivity sensitivity;
+  Eigen::Matrix<double, N, 1> residual;
+  Eigen::Matrix<double, N, N> tangent;
+};
+
+/// Work item `item`'s state from its kernel's `result` (a contact state with residual and
+/// tangent, sliced to the state); where the pair is in contact, its residual and tangent (the
+/// tangent where computed) appended to `slot`'s list of `terms`, and where its definition has
+/// friction, its `sensitivity` to `slot`'s list of `friction_terms`.
+template <class Work, class Result, class Terms, class FrictionTerms>
+void keep_terms(Work& item, const Result& result,
+                const decltype(FrictionTerms::sensitivity)& sensitivity, bool friction, int slot,
+                bool with_tangent, SlotLists<Terms>& terms,
+                SlotLists<FrictionTerms>& friction_terms) {
+  item.result = result;
+  item.terms = item.friction_terms = {};
+  if (!result.active)
+    return;
+  Terms& t = terms.append(slot, item.terms);
+  t.residual = result.residual;
+  if (with_tangent)
+    t.tangent = result.tangent;
+  if (friction)
+    friction_terms.append(slot, item.friction_terms).sensitivity = sensitivity;
+}
+
 /// Nodal velocities of the iterate, for contact damping (normal damping of the interface law,
 /// tangential damping of friction): implicit dynamic steps only, where the time integrator ties
 /// the velocities to the positions.

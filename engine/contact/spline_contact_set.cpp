@@ -281,13 +281,10 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
   // One list of terms and one scratch result per arena slot, and one for the serial hand-over
   // pass.
   const int serial_slot = tbb::this_task_arena::max_concurrency();
-  terms_.resize(static_cast<std::size_t>(std::max<int>(serial_slot + 1, terms_.size())));
-  friction_terms_.resize(terms_.size());
-  scratch_.resize(terms_.size());
-  for (std::vector<Terms>& t : terms_)
-    t.clear();
-  for (std::vector<FrictionTerms>& t : friction_terms_)
-    t.clear();
+  const std::size_t slots = static_cast<std::size_t>(serial_slot) + 1;
+  terms_.reset(slots);
+  friction_terms_.reset(slots);
+  scratch_.resize(std::max(slots, scratch_.size()));
   const auto project_item = [&](std::size_t w, const contact::ProjectionStart& start) {
     const int slot = tbb::this_task_arena::current_thread_index();
     Scratch& scratch = scratch_[static_cast<std::size_t>(slot)];
@@ -589,21 +586,8 @@ void SplineContactSet::keep(std::size_t w, const contact::SplineContactResult& r
                             const contact::SplineContactSensitivity& sensitivity, int slot,
                             bool with_tangent) {
   Work& item = work_[w];
-  item.result = result;
-  item.terms = item.friction_terms = {};
-  if (!result.active)
-    return;
-  std::vector<Terms>& list = terms_[static_cast<std::size_t>(slot)];
-  Terms& t = list.emplace_back();
-  t.residual = result.residual;
-  if (with_tangent)
-    t.tangent = result.tangent;
-  item.terms = {slot, static_cast<int>(list.size()) - 1};
-  if (!definitions_[item.definition]->friction)
-    return;
-  std::vector<FrictionTerms>& friction = friction_terms_[static_cast<std::size_t>(slot)];
-  friction.emplace_back().sensitivity = sensitivity;
-  item.friction_terms = {slot, static_cast<int>(friction.size()) - 1};
+  keep_terms(item, result, sensitivity, definitions_[item.definition]->friction.has_value(), slot,
+             with_tangent, terms_, friction_terms_);
 }
 
 SplineContactSet::FrictionTerms& SplineContactSet::friction_terms_of(const Work& item) {
@@ -615,8 +599,7 @@ const SplineContactSet::FrictionTerms& SplineContactSet::friction_terms_of(const
     throw std::logic_error(fmt::format("SplineContactSet: pair ({}, {}) of definition {} is in "
                                        "contact with no friction terms kept",
                                        item.pair.first, item.pair.second, item.definition));
-  return friction_terms_[static_cast<std::size_t>(item.friction_terms.slot)]
-                        [static_cast<std::size_t>(item.friction_terms.index)];
+  return friction_terms_.at(item.friction_terms);
 }
 
 const SplineContactSet::Terms& SplineContactSet::terms_of(const Work& item) const {
@@ -625,8 +608,7 @@ const SplineContactSet::Terms& SplineContactSet::terms_of(const Work& item) cons
                                        "contact with no residual kept (assembled before a "
                                        "projection)",
                                        item.pair.first, item.pair.second, item.definition));
-  return terms_[static_cast<std::size_t>(item.terms.slot)]
-               [static_cast<std::size_t>(item.terms.index)];
+  return terms_.at(item.terms);
 }
 
 int SplineContactSet::work_index(const Key& key) const {

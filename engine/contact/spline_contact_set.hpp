@@ -117,16 +117,12 @@ public:
 
 private:
   struct Definition;
-  /// Where an active pair's residual and tangent are kept (terms_): the arena slot that
-  /// projected it and its place in that slot's list; slot -1 for a pair out of contact.
-  struct TermsAt {
-    int slot = -1, index = -1;
-  };
   struct Work {
     int definition;
     broadphase::CandidatePair pair;
     contact::SplineContactState result;
-    TermsAt terms, friction_terms;
+    /// Where its residual and tangent (and friction terms) are kept: terms_, friction_terms_.
+    SlotEntry terms, friction_terms;
     int warm = -1; ///< index of its warm start in committed_, or -1 (link_warm_starts)
     /// Friction of an active point contact: the history this evaluation holds fixed (its own
     /// committed one, one handed over from a neighbouring pair, or a first touch) and the slip
@@ -181,18 +177,11 @@ private:
   /// otherwise): one list per arena slot, each pair's appended by the thread that projected it,
   /// the hand-over pass's in the last list. Cleared at each projection (kept for their capacity).
   /// Where the definition has friction, the point contact's sensitivity and the friction
-  /// kernel's residual and tangent (1.5 kB more) are kept likewise (friction_terms_).
-  struct Terms {
-    Eigen::Matrix<double, 18, 1> residual;
-    Eigen::Matrix<double, 18, 18> tangent;
-  };
-  struct FrictionTerms {
-    contact::SplineContactSensitivity sensitivity;
-    Eigen::Matrix<double, 18, 1> residual;
-    Eigen::Matrix<double, 18, 18> tangent;
-  };
-  std::vector<std::vector<Terms>> terms_;
-  std::vector<std::vector<FrictionTerms>> friction_terms_;
+  /// kernel's residual and tangent (3.3 kB more) are kept likewise (friction_terms_).
+  using Terms = PairTerms<18>;
+  using FrictionTerms = FrictionPairTerms<18, contact::SplineContactSensitivity>;
+  SlotLists<Terms> terms_;
+  SlotLists<FrictionTerms> friction_terms_;
   /// Per arena slot, what a pair's kernels write before keep() takes their state and terms.
   struct Scratch {
     contact::SplineContactResult result;

@@ -203,13 +203,9 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
   }
   // One list of terms and one scratch per arena slot.
   const std::size_t slots = static_cast<std::size_t>(tbb::this_task_arena::max_concurrency());
-  terms_.resize(std::max(slots, terms_.size()));
-  friction_terms_.resize(terms_.size());
-  scratch_.resize(terms_.size());
-  for (std::vector<Terms>& t : terms_)
-    t.clear();
-  for (std::vector<FrictionTerms>& t : friction_terms_)
-    t.clear();
+  terms_.reset(slots);
+  friction_terms_.reset(slots);
+  scratch_.resize(std::max(slots, scratch_.size()));
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, work_.size(), 8),
       [&](const tbb::blocked_range<std::size_t>& range) {
@@ -498,21 +494,8 @@ void SurfaceContactSet::keep(std::size_t w, const contact::SurfaceContactResult&
                              const contact::SurfaceContactSensitivity& sensitivity, int slot,
                              bool with_tangent) {
   Work& item = work_[w];
-  item.result = result;
-  item.terms = item.friction_terms = {};
-  if (!result.active)
-    return;
-  std::vector<Terms>& list = terms_[static_cast<std::size_t>(slot)];
-  Terms& t = list.emplace_back();
-  t.residual = result.residual;
-  if (with_tangent)
-    t.tangent = result.tangent;
-  item.terms = {slot, static_cast<int>(list.size()) - 1};
-  if (!definitions_[item.definition]->friction)
-    return;
-  std::vector<FrictionTerms>& friction = friction_terms_[static_cast<std::size_t>(slot)];
-  friction.emplace_back().sensitivity = sensitivity;
-  item.friction_terms = {slot, static_cast<int>(friction.size()) - 1};
+  keep_terms(item, result, sensitivity, definitions_[item.definition]->friction.has_value(), slot,
+             with_tangent, terms_, friction_terms_);
 }
 
 const SurfaceContactSet::Terms& SurfaceContactSet::terms_of(const Work& item) const {
@@ -521,8 +504,7 @@ const SurfaceContactSet::Terms& SurfaceContactSet::terms_of(const Work& item) co
                                        "contact with no residual kept (assembled before a "
                                        "projection)",
                                        item.pair.first, item.pair.second, item.definition));
-  return terms_[static_cast<std::size_t>(item.terms.slot)]
-               [static_cast<std::size_t>(item.terms.index)];
+  return terms_.at(item.terms);
 }
 
 SurfaceContactSet::FrictionTerms& SurfaceContactSet::friction_terms_of(const Work& item) {
@@ -535,8 +517,7 @@ SurfaceContactSet::friction_terms_of(const Work& item) const {
     throw std::logic_error(fmt::format("SurfaceContactSet: pair ({}, {}) of definition {} is in "
                                        "contact with no friction terms kept",
                                        item.pair.first, item.pair.second, item.definition));
-  return friction_terms_[static_cast<std::size_t>(item.friction_terms.slot)]
-                        [static_cast<std::size_t>(item.friction_terms.index)];
+  return friction_terms_.at(item.friction_terms);
 }
 
 std::vector<ContactCoupling> SurfaceContactSet::couplings() const {

@@ -101,16 +101,12 @@ public:
 
 private:
   struct Definition;
-  /// Where an active pair's residual and tangent are kept (terms_): the arena slot that
-  /// projected it and its place in that slot's list; slot -1 for a pair out of contact.
-  struct TermsAt {
-    int slot = -1, index = -1;
-  };
   struct Work {
     int definition;
     broadphase::CandidatePair pair;
     contact::SurfaceContactState result;
-    TermsAt terms, friction_terms;
+    /// Where its residual and tangent (and friction terms) are kept: terms_, friction_terms_.
+    SlotEntry terms, friction_terms;
     /// Factor on the pair's force where it and a neighbour's pair find two close points in a
     /// valley (share_split_contacts); 1 elsewhere.
     double factor = 1.0;
@@ -158,22 +154,15 @@ private:
   /// evaluated; its residual and tangent in friction_terms_).
   std::vector<contact::SurfaceFrictionState> friction_;
   /// The residual (24) and tangent (24 x 24) of the pairs in contact at the last projection,
-  /// held apart from the work list, whose candidates are mostly out of reach (4.6 kB a
+  /// held apart from the work list, whose candidates are mostly out of reach (4.8 kB a
   /// candidate otherwise): one list per arena slot, each pair's appended by the thread that
   /// projected it. Where the definition has friction, the contact's sensitivity and the friction
   /// (and torsional friction) terms likewise. Cleared at each projection (kept for their
   /// capacity).
-  struct Terms {
-    Eigen::Matrix<double, 24, 1> residual;
-    Eigen::Matrix<double, 24, 24> tangent;
-  };
-  struct FrictionTerms {
-    contact::SurfaceContactSensitivity sensitivity;
-    Eigen::Matrix<double, 24, 1> residual;
-    Eigen::Matrix<double, 24, 24> tangent;
-  };
-  std::vector<std::vector<Terms>> terms_;
-  std::vector<std::vector<FrictionTerms>> friction_terms_;
+  using Terms = PairTerms<24>;
+  using FrictionTerms = FrictionPairTerms<24, contact::SurfaceContactSensitivity>;
+  SlotLists<Terms> terms_;
+  SlotLists<FrictionTerms> friction_terms_;
   /// Per arena slot, what a pair's kernels write before keep() takes their state and terms.
   struct Scratch {
     contact::SurfaceContactResult result;
