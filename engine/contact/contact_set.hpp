@@ -405,6 +405,18 @@ void keep_terms(Work& item, const Result& result,
     friction_terms.append(slot, item.friction_terms).sensitivity = sensitivity;
 }
 
+/// A frictional pair's friction kernels' result (point and torsional friction summed in
+/// `result`): its state into `state` (the work item's), its residual and tangent (the tangent
+/// where computed) into the pair's `terms`.
+template <class State, class Result, class FrictionTerms>
+void keep_friction_terms(const Result& result, bool with_tangent, State& state,
+                         FrictionTerms& terms) {
+  state = result;
+  terms.residual = result.residual;
+  if (with_tangent)
+    terms.tangent = result.tangent;
+}
+
 /// Nodal velocities of the iterate, for contact damping (normal damping of the interface law,
 /// tangential damping of friction): implicit dynamic steps only, where the time integrator ties
 /// the velocities to the positions.

@@ -439,10 +439,7 @@ std::string SplineContactSet::project(const State& state, bool want_tangent,
               twist_[w] = {t.active,      t.slipping, t.torque, t.slip_increment,
                            t.dissipation, t.energy,   t.anchor};
             }
-            friction_[w] = f;
-            terms.residual = f.residual;
-            if (want_tangent)
-              terms.tangent = f.tangent;
+            keep_friction_terms(f, want_tangent, friction_[w], terms);
           }
         });
 

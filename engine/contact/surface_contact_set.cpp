@@ -108,7 +108,6 @@ SurfaceContactSet::SurfaceContactSet(const Model& model) : model_(model) {
         d->torsional_penalty = f.torsional_penalty;
       }
       any_friction_ = true;
-      any_torsional_ = any_torsional_ || d->torsional;
       damped_ = damped_ || d->friction->c_t() > 0;
     }
     d->boxes.resize(d->surface.size());
@@ -346,10 +345,7 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
               twist_[w] = {t.active,      t.slipping, t.torque, t.slip_increment,
                            t.dissipation, t.energy,   t.anchor};
             }
-            friction_[w] = f;
-            terms.residual = f.residual;
-            if (want_tangent)
-              terms.tangent = f.tangent;
+            keep_friction_terms(f, want_tangent, friction_[w], terms);
           }
         });
   }

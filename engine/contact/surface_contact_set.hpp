@@ -179,7 +179,6 @@ private:
   const Terms& terms_of(const Work& item) const;
   FrictionTerms& friction_terms_of(const Work& item);
   const FrictionTerms& friction_terms_of(const Work& item) const;
-  bool any_torsional_ = false;
   bool damped_ = false; ///< some definition has tangential damping
   /// Per work item: the torsional result's scalars (active where it was evaluated; its residual
   /// and tangent are added to the friction terms).

@@ -141,12 +141,6 @@ void gather_on_first_bytes(const void* elements, std::size_t n, std::size_t elem
   MPI_Type_free(&element);
 }
 
-double from_first(double value) {
-  if (size() > 1)
-    MPI_Bcast(&value, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-  return value;
-}
-
 std::string first_message(const std::string& local) {
   if (size() == 1)
     return local;
@@ -200,9 +194,6 @@ void gather_on_first_bytes(const void* elements, std::size_t n, std::size_t elem
                            void* (*resize)(void* out, std::size_t total), void* out) {
   if (n > 0)
     std::memcpy(resize(out, n), elements, n * element_size);
-}
-double from_first(double value) {
-  return value;
 }
 std::string first_message(const std::string& local) {
   return local;

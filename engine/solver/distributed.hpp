@@ -82,9 +82,6 @@ std::vector<T> gather_on_first(const std::vector<T>& local) {
   return out;
 }
 
-/// The first process's `value` on every process (collective); `value` in a one-process run.
-double from_first(double value);
-
 /// The message of the lowest-ranked process whose `local` is not empty, on every process
 /// (collective); empty when every process's is. `local` in a one-process run.
 std::string first_message(const std::string& local);

@@ -133,8 +133,11 @@ TEST_P(DistributedSolver, SumsTheProcessesOwnPatternsIntoTheWholeSystem) {
   EXPECT_LT((b - A * x).norm() / b.norm(), 1e-12) << solver->name();
   EXPECT_TRUE(same_on_every_process(x));
   // MUMPS's host orders the union of the gathered patterns: the whole system's, so the ordering
-  // is the one a whole matrix gets; the fill it decides by is agreed by every process (each
-  // decides alone whether to order afresh, and they must call MUMPS's analysis alike).
+  // is the one a whole matrix gets, and so is the factor. The fill it decides by is that
+  // factor's entries over the entries the processes hand in, summed over them (an entry two
+  // processes hand in counts twice: LDL^T the lower triangle of each one's pattern, LU all of
+  // it), the same on every process (each decides alone whether to order afresh, and they must
+  // call MUMPS's analysis alike).
   if (c.kind == LinearSolverKind::MUMPS) {
     auto whole = make_linear_solver(c.kind, c.symmetric);
     whole->analyze(A);
@@ -143,7 +146,17 @@ TEST_P(DistributedSolver, SumsTheProcessesOwnPatternsIntoTheWholeSystem) {
       EXPECT_EQ(a.inverse_permutation, w.inverse_permutation);
       EXPECT_GT(a.inverse_permutation.size(), 0u);
     }
+    const auto handed_in = [&](const SparseMatrix& M) {
+      double count = 0;
+      for (int k = 0; k < M.outerSize(); ++k)
+        for (SparseMatrix::InnerIterator it(M, k); it; ++it)
+          count += !c.symmetric || it.row() >= it.col();
+      return count;
+    };
+    double summed = handed_in(P);
+    distributed::sum(&summed, 1);
     EXPECT_GT(a.fill, 0.0);
+    EXPECT_NEAR(a.fill * summed, w.fill * handed_in(A), 1e-12 * w.fill * handed_in(A));
     EXPECT_EQ(distributed::largest(a.fill), distributed::smallest(a.fill));
   }
 }
