@@ -250,6 +250,10 @@ private:
   /// vectors, angular momenta and the Gauss-point histories), on every process: before output,
   /// checkpoints and energy balances, and at the step's end. Collective; nothing on one process.
   void share_state();
+  /// The nodes, elements and exchange blocks of this process's share (Simulation::partition_,
+  /// shares_): at the start, and where a balance moved the cuts (between increments, with the
+  /// state whole on every process: share_state).
+  void take_share();
   /// The kinetic energy of the state (J), and over several processes the sums of the
   /// processes' increments of the energy accumulators since `before` (kick work, damping,
   /// prescribed and external work, each counted over a process's own nodes).
@@ -593,17 +597,23 @@ CentralDifference::CentralDifference(Simulation& sim, int step_index)
   bad_.assign(n_, 0.0);
   node_work_.assign(n_, 0.0);
   prescribed_kinetic_.assign(n_, 0.0);
+  triads_each_increment_ = sim.partition_ && sim.contact_ && sim.contact_->reads_triads();
+  take_share();
+}
+
+void CentralDifference::take_share() {
+  first_ = 0;
   last_ = n_;
-  if (sim.partition_) {
-    first_ = sim.partition_->first;
-    last_ = sim.partition_->last;
-    shares_ = sim.shares_;
+  if (sim_.partition_) {
+    first_ = sim_.partition_->first;
+    last_ = sim_.partition_->last;
+    shares_ = sim_.shares_;
     counts_.resize(shares_.size());
     offsets_.resize(shares_.size());
-    triads_each_increment_ = sim.contact_ && sim.contact_->reads_triads();
   }
-  for (int e = 0; e < static_cast<int>(sim.model_.elements.size()); ++e)
-    if (!sim.partition_ || sim.partition_->owns(sim.model_.elements[e].nodes[0]))
+  own_elements_.clear();
+  for (int e = 0; e < static_cast<int>(sim_.model_.elements.size()); ++e)
+    if (!sim_.partition_ || sim_.partition_->owns(sim_.model_.elements[e].nodes[0]))
       own_elements_.push_back(e);
 }
 
@@ -1107,6 +1117,16 @@ void CentralDifference::run(SimulationObserver* observer) {
       share_state();
       if (sim_.contact_)
         sim_.gather_contact();
+      // Where the contact candidates changed since the last balance, the cuts move if that
+      // balances the work (Simulation::rebalance, as after an implicit increment's commit; the
+      // state and the pairs' histories are whole on every process here). Before the output, so
+      // that a checkpoint holds the cuts the next increment runs on.
+      if (const std::string balanced = sim_.rebalance(); !balanced.empty()) {
+        take_share();
+        if (observer)
+          observer->on_notice(
+              sim_, fmt::format("step {}, t = {:.6g} s: {}", index_ + 1, time_, balanced));
+      }
       if (observer) {
         IncrementReport report;
         report.step = index_;

@@ -7,8 +7,9 @@
 # UMFPACK's; the explicit path: a one-yarn run bitwise on 2 processes, the paper's fabric on 2
 # and 3 processes within 1e-10, with friction stopped on 2 and restarted on 3, with surface
 # contact on 2, two beams turned at their ends with damping on 2 and 3, and an explicit step
-# handing over to a dynamic one with friction on 2; friction with an elastic slip on 3; the
-# bias extension on 3, whose partition is balanced again, stopped and restarted. Only rank 0
+# handing over to a dynamic one with friction on 2, and rods whose explicit run is balanced again
+# on 2, stopped and restarted on 3; friction with an elastic slip on 3; the bias extension on 3,
+# whose partition is balanced again, stopped and restarted. Only rank 0
 # speaks: one start line, one done line.
 # Usage: ranks.sh YARNSIM REPO WORKDIR
 set -u
@@ -122,6 +123,26 @@ mpi 3 run explicit-friction.toml --restart explicit-2-then-3 -q >> explicit-2-th
   { echo "FAIL: the explicit run's restart over 3 processes failed"; cat explicit-2-then-3.log; fail=1; }
 "$python" "$compare" explicit-friction-ref explicit-2-then-3 1e-8 ||
   { echo "FAIL explicit-2-then-3: differs from the one-process run"; fail=1; }
+# The explicit path's partition balanced again as the candidates gather on one rod
+# (tests/mpi/rebalance-explicit.toml): over 2 processes the cut moves at t = 0.36 s, and the run
+# agrees with one process's within 1e-10 (1.2e-12 measured); stopped after increment 5 000 (past
+# the move) and restarted on 3, the same. Without the integrator taking its new share of the
+# nodes (CentralDifference::take_share) the 2-process run stops on its energy balance.
+cp "$(dirname "${BASH_SOURCE[0]}")/rebalance-explicit.toml" rebalance.toml
+"$yarnsim" run rebalance.toml -o rebalance-ref -q > rebalance-ref.log 2>&1 ||
+  { echo "FAIL rebalance: the one-process run failed"; cat rebalance-ref.log; fail=1; }
+mpi 2 run rebalance.toml -o rebalance-np2 -q > rebalance-np2.log 2>&1 ||
+  { echo "FAIL rebalance over 2 processes failed"; cat rebalance-np2.log; fail=1; }
+grep -q "step 1, t = 0.36 s: the work over the 2 processes balanced again" rebalance-np2.log ||
+  { echo "FAIL rebalance-np2: the partition was not balanced again at t = 0.36 s"; cat rebalance-np2.log; fail=1; }
+"$python" "$compare" rebalance-ref rebalance-np2 1e-10 ||
+  { echo "FAIL rebalance-np2: differs from the one-process run"; fail=1; }
+mpi 2 run rebalance.toml -o rebalance-2-then-3 -q --stop-after 5000 > rebalance-2-then-3.log 2>&1
+[ $? -eq 130 ] || { echo "FAIL: the rebalanced explicit run stopped after 5000 increments did not exit 130"; cat rebalance-2-then-3.log; fail=1; }
+mpi 3 run rebalance.toml --restart rebalance-2-then-3 -q >> rebalance-2-then-3.log 2>&1 ||
+  { echo "FAIL: the rebalanced explicit run's restart over 3 processes failed"; cat rebalance-2-then-3.log; fail=1; }
+"$python" "$compare" rebalance-ref rebalance-2-then-3 1e-10 ||
+  { echo "FAIL rebalance-2-then-3: differs from the one-process run"; fail=1; }
 # Surface contact on the explicit path, whose sections turn with the triads the processes share
 # at every increment: the yarns touching from the start (gap = 0, about 100 points bouncing),
 # 5 000 increments on 2 processes. The displacements agree within 4e-12 of their largest (1e-6 m);
