@@ -123,26 +123,6 @@ mpi 3 run explicit-friction.toml --restart explicit-2-then-3 -q >> explicit-2-th
   { echo "FAIL: the explicit run's restart over 3 processes failed"; cat explicit-2-then-3.log; fail=1; }
 "$python" "$compare" explicit-friction-ref explicit-2-then-3 1e-8 ||
   { echo "FAIL explicit-2-then-3: differs from the one-process run"; fail=1; }
-# The explicit path's partition balanced again as the candidates gather on one rod
-# (tests/mpi/rebalance-explicit.toml): over 2 processes the cut moves at t = 0.36 s, and the run
-# agrees with one process's within 1e-10 (1.2e-12 measured); stopped after increment 5 000 (past
-# the move) and restarted on 3, the same. Without the integrator taking its new share of the
-# nodes (CentralDifference::take_share) the 2-process run stops on its energy balance.
-cp "$(dirname "${BASH_SOURCE[0]}")/rebalance-explicit.toml" rebalance.toml
-"$yarnsim" run rebalance.toml -o rebalance-ref -q > rebalance-ref.log 2>&1 ||
-  { echo "FAIL rebalance: the one-process run failed"; cat rebalance-ref.log; fail=1; }
-mpi 2 run rebalance.toml -o rebalance-np2 -q > rebalance-np2.log 2>&1 ||
-  { echo "FAIL rebalance over 2 processes failed"; cat rebalance-np2.log; fail=1; }
-grep -q "step 1, t = 0.36 s: the work over the 2 processes balanced again" rebalance-np2.log ||
-  { echo "FAIL rebalance-np2: the partition was not balanced again at t = 0.36 s"; cat rebalance-np2.log; fail=1; }
-"$python" "$compare" rebalance-ref rebalance-np2 1e-10 ||
-  { echo "FAIL rebalance-np2: differs from the one-process run"; fail=1; }
-mpi 2 run rebalance.toml -o rebalance-2-then-3 -q --stop-after 5000 > rebalance-2-then-3.log 2>&1
-[ $? -eq 130 ] || { echo "FAIL: the rebalanced explicit run stopped after 5000 increments did not exit 130"; cat rebalance-2-then-3.log; fail=1; }
-mpi 3 run rebalance.toml --restart rebalance-2-then-3 -q >> rebalance-2-then-3.log 2>&1 ||
-  { echo "FAIL: the rebalanced explicit run's restart over 3 processes failed"; cat rebalance-2-then-3.log; fail=1; }
-"$python" "$compare" rebalance-ref rebalance-2-then-3 1e-10 ||
-  { echo "FAIL rebalance-2-then-3: differs from the one-process run"; fail=1; }
 # Surface contact on the explicit path, whose sections turn with the triads the processes share
 # at every increment: the yarns touching from the start (gap = 0, about 100 points bouncing),
 # 5 000 increments on 2 processes. The displacements agree within 4e-12 of their largest (1e-6 m);
@@ -180,30 +160,46 @@ mpi 2 run explicit-then-dynamic.toml -o explicit-then-dynamic-np2 -q > explicit-
 "$python" "$compare" explicit-then-dynamic-ref explicit-then-dynamic-np2 1e-10 ||
   { echo "FAIL explicit-then-dynamic-np2: differs from the one-process run"; fail=1; }
 
-# The partition balanced again as the contact graph changes (Simulation::rebalance): in the bias
-# extension the sheared zone gathers the parallel yarns' contact candidates on the yarns that
-# cross it; over 3 processes the largest share of the work (elements and candidates) reaches
+# The partition balanced again as the contact graph changes (Simulation::rebalance): NAME.toml run
+# on one process and on NP, whose log must hold NOTE, within TOL of each other; then stopped on NP
+# processes after increment STOP (its checkpoint holds the cuts) and restarted on AGAIN, within
+# TOL again.
+balanced_again() { # name np note tol stop again
+  local name="$1" np="$2" note="$3" tol="$4" stop="$5" again="$6"
+  "$yarnsim" run "$name.toml" -o "$name-ref" -q > "$name-ref.log" 2>&1 ||
+    { echo "FAIL $name: the one-process run failed"; cat "$name-ref.log"; fail=1; return; }
+  mpi "$np" run "$name.toml" -o "$name-np$np" -q > "$name-np$np.log" 2>&1 ||
+    { echo "FAIL $name over $np processes failed"; cat "$name-np$np.log"; fail=1; }
+  grep -q "$note" "$name-np$np.log" ||
+    { echo "FAIL $name-np$np: the partition was not balanced again ($note)"; cat "$name-np$np.log"; fail=1; }
+  "$python" "$compare" "$name-ref" "$name-np$np" "$tol" ||
+    { echo "FAIL $name-np$np: differs from the one-process run"; fail=1; }
+  mpi "$np" run "$name.toml" -o "$name-restart" -q --stop-after "$stop" > "$name-stop.log" 2>&1
+  [ $? -eq 130 ] ||
+    { echo "FAIL $name: the run stopped after increment $stop did not exit 130"; cat "$name-stop.log"; fail=1; }
+  h5ls "$name-restart/checkpoint.h5/partition_cuts" > /dev/null 2>&1 ||
+    { echo "FAIL $name-restart: the checkpoint holds no partition"; fail=1; }
+  mpi "$again" run "$name.toml" -q --restart "$name-restart" > "$name-restart.log" 2>&1 ||
+    { echo "FAIL $name restarted over $again processes failed"; cat "$name-restart.log"; fail=1; }
+  "$python" "$compare" "$name-ref" "$name-restart" "$tol" ||
+    { echo "FAIL $name-restart: differs from the one-process run"; fail=1; }
+}
+# The bias extension: the sheared zone gathers the parallel yarns' contact candidates on the yarns
+# that cross it; over 3 processes the largest share of the work (elements and candidates) reaches
 # 1.10 times the mean by t = 0.98 s (increment 98), where the cuts move (1.10 -> 1.05: the note
 # says so). The results stay within 1e-9 of one process's (two identical 3-process runs differ
 # by up to 4.7e-10 in a contact force at increment 80, before the move: MUMPS over 3 processes),
-# also where the run stops after the move and is restarted from its checkpoint, which holds the
-# cuts.
+# also stopped after the move and restarted on 3.
 cp "$repo/examples/bias-extension-twintex.toml" bias.toml
-"$yarnsim" run bias.toml -o bias-ref -q > bias-ref.log 2>&1 ||
-  { echo "FAIL bias: the one-process run failed"; cat bias-ref.log; fail=1; }
-mpi 3 run bias.toml -o bias-np3 -q > bias-np3.log 2>&1 ||
-  { echo "FAIL bias over 3 processes failed"; cat bias-np3.log; fail=1; }
-grep -q "balanced again" bias-np3.log ||
-  { echo "FAIL bias-np3: the partition was not balanced again"; cat bias-np3.log; fail=1; }
-"$python" "$compare" bias-ref bias-np3 1e-9 ||
-  { echo "FAIL bias-np3: differs from the one-process run"; fail=1; }
-mpi 3 run bias.toml -o bias-restart -q --stop-after 101 > bias-stop.log 2>&1
-h5ls bias-restart/checkpoint.h5/partition_cuts > /dev/null 2>&1 ||
-  { echo "FAIL bias-restart: the checkpoint holds no partition"; fail=1; }
-mpi 3 run bias.toml -o bias-restart -q --restart bias-restart > bias-restart.log 2>&1 ||
-  { echo "FAIL bias restarted over 3 processes failed"; cat bias-restart.log; fail=1; }
-"$python" "$compare" bias-ref bias-restart 1e-9 ||
-  { echo "FAIL bias-restart: differs from the one-process run"; fail=1; }
+balanced_again bias 3 "balanced again" 1e-9 101 3
+# The explicit path, balanced at its output increments (tests/mpi/rebalance-explicit.toml: the
+# candidates gather on one rod): over 2 processes the cut moves at t = 0.36 s, and the run agrees
+# with one process's within 1e-10 (1.2e-12 measured), also stopped after increment 5 000 (past
+# the move) and restarted on 3. Without the integrator taking its new share of the nodes
+# (CentralDifference::take_share) the 2-process run stops on its energy balance.
+cp "$(dirname "${BASH_SOURCE[0]}")/rebalance-explicit.toml" rebalance.toml
+balanced_again rebalance 2 "step 1, t = 0.36 s: the work over the 2 processes balanced again" \
+  1e-10 5000 3
 
 [ "$fail" -eq 0 ] && echo "PASS: 1, 2 and 3 processes give the one-process run's results"
 exit "$fail"
