@@ -332,19 +332,20 @@ private:
   /// The largest nodal translation (m) and Rodrigues increment of a correction over the free
   /// equations (maxima: the same on any thread count).
   std::pair<double, double> largest_nodal_motion(const Eigen::VectorXd& delta) const;
-  /// The fraction of a Newton correction delta (over the free equations) to apply, at most
-  /// lambda: the step limit (max_contact_step_) and the closing limit of its nodal translations
-  /// from the contact's last evaluation, moved by the predictor's motion from the converged
-  /// state where from_converged (formulation.md "Solution"); with the line search only. Sets
-  /// du (m) and da to delta's largest nodal translation and Rodrigues increment.
   /// Over several processes, where the contact candidates changed since the last balance: the
   /// cuts made again over the elements and the candidate pairs each node owns (partition_all
   /// with their load, kCandidateLoad each). Where that lowers the largest process's share of
   /// the work by kRebalanceGain of the mean at least, every process takes the histories
   /// of every pair (the commit's, gathered then on every process) and keeps its new share of the
-  /// pairs from the next search on. Between increments (after a commit, and at a restart); returns
-  /// a description of the change for the user, or nothing.
+  /// pairs from the next search on. Between increments: after an implicit commit, at a restart,
+  /// and at an explicit step's output increments (CentralDifference::run, which then takes its
+  /// new share of the nodes); returns a description of the change for the user, or nothing.
   std::string rebalance();
+  /// The fraction of a Newton correction delta (over the free equations) to apply, at most
+  /// lambda: the step limit (max_contact_step_) and the closing limit of its nodal translations
+  /// from the contact's last evaluation, moved by the predictor's motion from the converged
+  /// state where from_converged (formulation.md "Solution"); with the line search only. Sets
+  /// du (m) and da to delta's largest nodal translation and Rodrigues increment.
   double limit_correction(const Eigen::VectorXd& delta, double lambda, bool from_converged,
                           double& du, double& da);
   /// Analyses the tangent's pattern where it changed since the last analysis (collectively over
@@ -426,7 +427,9 @@ private:
   int balanced_version_ = -1;
   /// A contact candidate pair's work in the partition's balance, in elements' worth: a pair's
   /// projection per iteration against an element's residual and tangent (the 24 x 24 weave, one
-  /// thread: 14 ms for 21 500 candidates against 13 ms for 5 184 elements, 0.26).
+  /// thread: 14 ms for 21 500 candidates against 13 ms for 5 184 elements, 0.26); on the
+  /// explicit path a candidate's contact search against an element's forces, kicks and commit
+  /// (0.20 against 0.95 us, 0.21: docs/performance.md, "The explicit path balanced again").
   static constexpr double kCandidateLoad = 0.25;
   /// The least gain of a new partition, in the largest share over the mean (rebalance).
   static constexpr double kRebalanceGain = 0.05;
