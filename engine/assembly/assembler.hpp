@@ -5,8 +5,8 @@
 // and every matrix entry is summed in the same order on any thread count.
 
 #include "engine/assembly/partition.hpp"
+#include "engine/assembly/sparse_matrix.hpp"
 #include "engine/beam/beam_element.hpp"
-#include "engine/solver/linear_solver.hpp"
 #include "engine/state/state.hpp"
 
 #include <Eigen/Core>

@@ -3,6 +3,8 @@
 // ordering) once and refactorised while it does not change (engineering-notes.md, "Sparse direct
 // solvers"); the LDL^T keeps its ordering across pattern changes while the fill allows.
 
+#include "engine/assembly/sparse_matrix.hpp"
+
 #include <Eigen/SparseCore>
 #include <memory>
 #include <stdexcept>
@@ -10,8 +12,6 @@
 #include <vector>
 
 namespace yarnsim {
-
-using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
 /// The factorisation failed (singular or non-finite matrix).
 class LinearSolverError : public std::runtime_error {
