@@ -4,9 +4,10 @@
 // node (even and odd elements along a yarn), so each colour is scattered in parallel without locks
 // and every matrix entry is summed in the same order on any thread count.
 
-#include "engine/assembly/partition.hpp"
 #include "engine/assembly/sparse_matrix.hpp"
 #include "engine/beam/beam_element.hpp"
+#include "engine/contact/contact_target.hpp"
+#include "engine/model/partition.hpp"
 #include "engine/state/state.hpp"
 
 #include <Eigen/Core>
@@ -26,18 +27,8 @@ struct StiffnessDamping {
   const Eigen::VectorXd* velocity = nullptr; ///< 6 n_nodes: v (m/s) and spatial omega (rad/s)
 };
 
-/// The nodes a contact pair couples in the tangent (unused slots repeat a node) and whether its
-/// tangent has rotational terms: spline pairs act on the translations of their 6 control points
-/// only, surface pairs on the translations and rotations of their 4 end nodes. Coupling only what
-/// a pair uses keeps the matrix, and the factorisation's fill, at a quarter of the all-DOF
-/// coupling for spline pairs.
-struct ContactCoupling {
-  std::array<int, 6> nodes{};
-  bool rotations = false;
-  auto operator<=>(const ContactCoupling&) const = default;
-};
-
-class Assembler {
+/// Implements ContactTarget: the contact stage adds its pairs' terms into this tangent.
+class Assembler final : public ContactTarget {
 public:
   /// constrained: per global DOF (6 n_nodes), true when its increment is prescribed. With
   /// `share` (one process's nodes in a run over several whose solver sums the processes' own
@@ -50,7 +41,7 @@ public:
   Assembler(const Model& model, const std::vector<char>& constrained,
             std::optional<NodePartition> share = std::nullopt);
 
-  int n_nodes() const { return n_nodes_; }
+  int n_nodes() const override { return n_nodes_; }
   int n_equations() const { return n_equations_; }
   /// Equation of a global DOF (6 node + dof), -1 when constrained.
   int equation(int dof) const { return equation_[dof]; }
@@ -108,20 +99,22 @@ public:
   int pattern_version() const { return pattern_version_; }
   /// Names the current pattern among every pattern any Assembler of the process has built (a
   /// process-wide counter): slots looked up in a pattern stay valid while this is unchanged.
-  std::uint64_t pattern_id() const { return pattern_id_; }
+  std::uint64_t pattern_id() const override { return pattern_id_; }
+  /// matrix().valuePtr() (ContactTarget).
+  double* tangent_values() override { return matrix_.valuePtr(); }
 
   /// Where a contact pair's 18 x 18 tangent over the translations of its 6 nodes goes: slots[18 r
   /// + c] is the index into matrix().valuePtr() of block entry (r, c), r = 3 a + i for node a's
   /// component i, or -1 where either DOF is constrained. The pattern must hold the coupling
   /// (ensure_couplings); throws std::logic_error naming the nodes if it does not. Reads the
   /// pattern only: pairs may be looked up in parallel and added in their order.
-  void translation_block_slots(const std::array<int, 6>& nodes, int* slots) const;
+  void translation_block_slots(const std::array<int, 6>& nodes, int* slots) const override;
 
   /// The same for a surface contact pair's 24 x 24 tangent over the translations and rotations of
   /// its four end nodes, nodes = (A first, A last, B first, B last), in the kernel's order per
   /// surface: x_first, x_last, alpha_first, alpha_last (contact/surface_contact.hpp); slots[24 c
   /// + r] for block entry (r, c). The pattern must hold the coupling with rotations.
-  void surface_pair_block_slots(const std::array<int, 4>& nodes, int* slots) const;
+  void surface_pair_block_slots(const std::array<int, 4>& nodes, int* slots) const override;
 
   /// The matrix entries one process of a run over several may write (partition.hpp): those of
   /// the elements whose first node `owned` holds, of its nodes' blocks (inertia, loads) and of

@@ -7,8 +7,9 @@
 // order.
 
 #include "contact/spline_contact.hpp" // ProjectionStatus
-#include "engine/assembly/assembler.hpp"
+#include "engine/contact/contact_target.hpp"
 #include "engine/model/model.hpp"
+#include "engine/model/partition.hpp"
 #include "engine/state/state.hpp"
 
 #include <Eigen/Core>
@@ -26,8 +27,6 @@
 #include <vector>
 
 namespace yarnsim {
-
-class Assembler;
 
 /// An active contact point, for output.
 struct ContactPoint {
@@ -117,8 +116,8 @@ bool needs_coupling(const Result& r, double reach) {
 /// makes its work list anew (new candidates, a restore).
 struct SlotCache {
   std::vector<int> offset;    ///< per work item: where its block starts in `store`, or -1
-  std::vector<int> store;     ///< the blocks' slots (Assembler::*_block_slots)
-  std::uint64_t pattern = 0;  ///< Assembler::pattern_id() they were looked up in
+  std::vector<int> store;     ///< the blocks' slots (ContactTarget::*_block_slots)
+  std::uint64_t pattern = 0;  ///< ContactTarget::pattern_id() they were looked up in
   std::vector<int> looked_up; ///< scratch: the work items looked up in this evaluation
   void clear() {
     offset.clear();
@@ -205,7 +204,7 @@ void scan_work(std::size_t n, std::vector<WorkScan>& blocks, WorkScan& out, Scan
 /// their order) into `items` and, for a tangent, each one's `block` matrix slots in `cache`
 /// (cache.slots(item)): those the cache lacks (new active items, or all after the pattern
 /// `pattern_id` changed) are looked up in parallel by slots_of(item, destination), an
-/// Assembler::*_block_slots lookup. The set then adds the pairs in their order (add_by_node):
+/// ContactTarget::*_block_slots lookup. The set then adds the pairs in their order (add_by_node):
 /// the same sums on any thread count.
 template <class Work, class SlotsOf>
 void find_active_slots(const std::vector<Work>& work, bool want_tangent, int block,
@@ -484,7 +483,7 @@ public:
   virtual std::vector<ContactCoupling> couplings() const = 0;
   /// Adds the active pairs' residuals and, if want_tangent, tangents, in sorted pair order (of
   /// a share, its own pairs: set_owned).
-  virtual void assemble(Eigen::VectorXd& residual, Assembler& assembler,
+  virtual void assemble(Eigen::VectorXd& residual, ContactTarget& target,
                         bool want_tangent) const = 0;
   /// Accepts the last evaluation as converged: warm starts and active flags for the next one.
   virtual void commit() = 0;

@@ -95,10 +95,10 @@ bool ContactStage::partitioned() const {
   return partition_.has_value();
 }
 
-void ContactStage::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+void ContactStage::assemble(Eigen::VectorXd& residual, ContactTarget& target,
                             bool want_tangent) const {
   for (const auto& set : sets_)
-    set->assemble(residual, assembler, want_tangent);
+    set->assemble(residual, target, want_tangent);
 }
 
 void ContactStage::commit() {

@@ -45,7 +45,7 @@ public:
   /// Every set's ContactSet::add_candidate_loads.
   void add_candidate_loads(std::vector<double>& per_node, double weight) const;
   std::vector<ContactCoupling> couplings() const;
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const;
+  void assemble(Eigen::VectorXd& residual, ContactTarget& target, bool want_tangent) const;
   void commit();
   /// The smallest ContactSet::closing_limit of the sets.
   double closing_limit(const Eigen::Matrix3Xd& du, const Eigen::Matrix3Xd* offset,

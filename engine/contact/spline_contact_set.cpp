@@ -1,7 +1,6 @@
 #include "engine/contact/spline_contact_set.hpp"
 
 #include "contact/line_contact.hpp"
-#include "engine/assembly/assembler.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -501,7 +500,7 @@ std::vector<ContactCoupling> SplineContactSet::couplings() const {
   return out;
 }
 
-void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+void SplineContactSet::assemble(Eigen::VectorXd& residual, ContactTarget& target,
                                 bool want_tangent) const {
   // Tangents are left as they were where they were not computed (project), so a tangent asked
   // for here must come from a projection that computed it.
@@ -511,9 +510,9 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
   // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
   // its order (find_active_slots).
   constexpr int kBlock = 18 * 18;
-  find_active_slots(work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_,
+  find_active_slots(work_, want_tangent, kBlock, target.pattern_id(), assembly_items_,
                     assembly_slots_, [&](const Work& item, int* slots) {
-                      assembler.translation_block_slots(
+                      target.translation_block_slots(
                           nodes_of(*definitions_[item.definition], item.pair), slots);
                     });
   // Each item's nodes and line friction, then the items added in parallel over their nodes,
@@ -532,8 +531,8 @@ void SplineContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
                              ? static_cast<int>(next_line)
                              : -1;
   }
-  double* values = assembler.matrix().valuePtr();
-  add_by_node(assembler.n_nodes(), assembly_nodes_, assembly_offsets_, assembly_incident_,
+  double* values = target.tangent_values();
+  add_by_node(target.n_nodes(), assembly_nodes_, assembly_offsets_, assembly_incident_,
               [&](std::size_t k, int node) {
                 const std::size_t w = static_cast<std::size_t>(assembly_items_[k]);
                 const Terms& terms = terms_of(work_[w]);

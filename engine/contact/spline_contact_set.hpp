@@ -55,7 +55,7 @@ public:
   /// The 6 control points of each candidate pair.
   std::vector<ContactCoupling> couplings() const override;
   /// Translations only: the splines' control points carry no rotations.
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
+  void assemble(Eigen::VectorXd& residual, ContactTarget& target, bool want_tangent) const override;
   void commit() override;
   /// Gaps are effective gaps (eq. 12).
   const ContactSummary& summary() const override { return summary_; }
@@ -255,7 +255,7 @@ private:
   /// Whether the last projection computed the active pairs' tangents (assemble reads them).
   bool tangents_computed_ = false;
   /// assemble()'s buffers, kept for their capacity: the active work items, the slots of the
-  /// work items' tangents in the matrix (324 per item, Assembler::translation_block_slots;
+  /// work items' tangents in the matrix (324 per item, ContactTarget::translation_block_slots;
   /// cleared with each new work list), each active item's nodes and line friction (an index into
   /// line_friction_, or -1), and the node -> pairs lists of add_by_node.
   mutable std::vector<int> assembly_items_, assembly_lines_;

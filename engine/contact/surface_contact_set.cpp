@@ -1,6 +1,5 @@
 #include "engine/contact/surface_contact_set.hpp"
 
-#include "engine/assembly/assembler.hpp"
 #include "engine/contact/spline_contact_set.hpp" // make_interface_law
 
 #include <Eigen/LU>
@@ -528,14 +527,14 @@ std::vector<ContactCoupling> SurfaceContactSet::couplings() const {
   return out;
 }
 
-void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler,
+void SurfaceContactSet::assemble(Eigen::VectorXd& residual, ContactTarget& target,
                                  bool want_tangent) const {
   // The tangents' slots in the matrix are looked up in parallel, then every pair is added in
   // its order (find_active_slots).
   constexpr int kBlock = 24 * 24;
-  find_active_slots(work_, want_tangent, kBlock, assembler.pattern_id(), assembly_items_,
+  find_active_slots(work_, want_tangent, kBlock, target.pattern_id(), assembly_items_,
                     assembly_slots_, [&](const Work& item, int* slots) {
-                      assembler.surface_pair_block_slots(
+                      target.surface_pair_block_slots(
                           nodes_of(*definitions_[item.definition], item.pair), slots);
                     });
   // The items added in parallel over their end nodes, each node's in the items' order
@@ -545,8 +544,8 @@ void SurfaceContactSet::assemble(Eigen::VectorXd& residual, Assembler& assembler
     const Work& item = work_[static_cast<std::size_t>(assembly_items_[i])];
     assembly_nodes_[i] = nodes_of(*definitions_[item.definition], item.pair);
   }
-  double* values = assembler.matrix().valuePtr();
-  add_by_node(assembler.n_nodes(), assembly_nodes_, assembly_offsets_, assembly_incident_,
+  double* values = target.tangent_values();
+  add_by_node(target.n_nodes(), assembly_nodes_, assembly_offsets_, assembly_incident_,
               [&](std::size_t i, int node) {
                 const std::size_t k = static_cast<std::size_t>(assembly_items_[i]);
                 const Work& item = work_[k];

@@ -46,7 +46,7 @@ public:
   void add_candidate_loads(std::vector<double>& per_node, double weight) const override;
   /// The four end nodes of each candidate pair (A's first and last, B's first and last).
   std::vector<ContactCoupling> couplings() const override;
-  void assemble(Eigen::VectorXd& residual, Assembler& assembler, bool want_tangent) const override;
+  void assemble(Eigen::VectorXd& residual, ContactTarget& target, bool want_tangent) const override;
   void commit() override;
   /// Gaps are signed distances between the surfaces.
   const ContactSummary& summary() const override { return summary_; }
@@ -137,7 +137,7 @@ private:
   std::vector<std::unique_ptr<Definition>> definitions_;
   std::vector<Work> work_; ///< last evaluation, sorted by (definition, pair)
   /// assemble()'s buffers, kept for their capacity: the active work items, the slots of the
-  /// work items' tangents in the matrix (576 per item, Assembler::surface_pair_block_slots;
+  /// work items' tangents in the matrix (576 per item, ContactTarget::surface_pair_block_slots;
   /// cleared with each new work list), each active item's end nodes, and the node -> pairs lists
   /// of add_by_node.
   mutable std::vector<int> assembly_items_;

@@ -4,7 +4,7 @@
 // lockstep: their states are the same bits because the linear solver hands each of them the
 // same solution (petsc_solver.hpp), so every decision of the Newton loop, the step control and
 // the contact stage is taken alike without being communicated. Each assembles its share of the
-// elements and pairs (engine/assembly/partition.hpp), summed here; what one process alone sees
+// elements and pairs (engine/model/partition.hpp), summed here; what one process alone sees
 // (a signal) is agreed here. docs/formulation.md, "Runs over MPI".
 
 #include <cstddef>

@@ -5,11 +5,11 @@
 // Simo and Vu-Quoc's material form on rotations.
 
 #include "engine/assembly/assembler.hpp"
-#include "engine/assembly/partition.hpp"
 #include "engine/contact/contact_stage.hpp"
 #include "engine/contact/spline_contact_set.hpp"
 #include "engine/contact/surface_contact_set.hpp"
 #include "engine/model/model.hpp"
+#include "engine/model/partition.hpp"
 #include "engine/solver/linear_solver.hpp"
 #include "engine/state/state.hpp"
 

@@ -3,10 +3,10 @@
 // assembled without its coupling is refused instead of writing outside the matrix.
 #include "beam_models.hpp"
 #include "engine/assembly/assembler.hpp"
-#include "engine/assembly/partition.hpp"
 #include "engine/contact/contact_set.hpp"
 #include "engine/contact/contact_stage.hpp"
 #include "engine/input/read_deck.hpp"
+#include "engine/model/partition.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/state/state.hpp"
 

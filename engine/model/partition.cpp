@@ -1,4 +1,4 @@
-#include "engine/assembly/partition.hpp"
+#include "engine/model/partition.hpp"
 
 #include "engine/model/model.hpp"
 

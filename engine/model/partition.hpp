@@ -1,5 +1,5 @@
 #pragma once
-// The share of the assembly one process takes when a run is spread over several (MPI): a
+// The share of the model one process takes when a run is spread over several (MPI): a
 // contiguous range of nodes, cut between whole yarns. The process assembles the beam elements
 // whose first node it owns and its nodes' inertia and loads, and projects and assembles the
 // contact pairs it owns (pair_owner_node, contact_set.hpp); the processes' residuals and matrices
