@@ -1147,9 +1147,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   // nonlinearity along delta, and is evaluated there; a configuration the contact vetoes halves
   // lambda at once. After a damped step the next correction starts from min(1, 4 lambda).
   double next_lambda = 1;
-  std::vector<double> moment_history; // N m, moment residual norm of each iteration
-  bool damping_gave_up = false;       // no damping made the corrections contract
-  std::uint64_t last_active_set = 0;  // of the point the correction in use started from
+  std::vector<double> moment_history;              // N m, moment residual norm of each iteration
+  std::vector<std::array<int, 2>> contact_history; // active and slipping points of each iteration
+  bool damping_gave_up = false;                    // no damping made the corrections contract
+  std::uint64_t last_active_set = 0; // of the point the correction in use started from
   std::string last_veto;
   // The residual's norm at the point delta started from, in the references of the attempt's
   // first evaluation (force and moment residuals each over their reference).
@@ -1280,6 +1281,28 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
                          model_.node_label(worst_dof >= 0 ? worst_dof / 6 : 0),
                          worst_dof >= 0 ? dof_name(worst_dof % 6) : "-",
                          worst_dof >= 0 ? on_spline(model_, worst_dof / 6) : "");
+    // Stick and slip that Newton does not settle: with the same active pairs over the last three
+    // iterates (the closings done), the residual and the number of slipping points both grew at
+    // each of the last two. Traced on the frictional 48 x 48 weave's toe, such attempts went on
+    // growing to the iteration limit (docs/performance.md, "Stick and slip that do not settle");
+    // they are cut here and the step halved as at the limit. Abaqus's time incrementation
+    // control cuts after 4 iterations where the residual grows twice running; without the slip's
+    // growth, that also cuts frictionless weaves' toe increments that converge.
+    if (contact_)
+      contact_history.push_back({contact_->summary().active, contact_->summary().slip});
+    if (options_.stick_slip_check && iter >= 4 && contact_history.size() >= 3) {
+      const std::size_t m = contact_history.size();
+      const std::vector<double>& r = report.residual_history;
+      const std::size_t k = r.size();
+      const auto& [a0, s0] = contact_history[m - 3];
+      const auto& [a1, s1] = contact_history[m - 2];
+      const auto& [a2, s2] = contact_history[m - 1];
+      if (a0 == a1 && a1 == a2 && s0 < s1 && s1 < s2 && r[k - 3] < r[k - 2] && r[k - 2] < r[k - 1])
+        return fmt::format("stick and slip not settling after {} iterations: the relative "
+                           "residual grew twice running ({:.3e}, {:.3e}, {:.3e}) with the "
+                           "slipping points ({}, {}, {} of {} active)",
+                           iter, r[k - 3], r[k - 2], r[k - 1], s0, s1, s2, a2);
+    }
     if (iter > 2 && ev.relative > 1e8 * report.residual_history.front())
       return fmt::format("Newton diverged (residual grew from {:.3e} to {:.3e}); worst: node {} "
                          "DOF {}{}",

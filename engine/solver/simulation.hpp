@@ -176,6 +176,11 @@ struct SimulationOptions {
   /// formulation.md "Solution"), where the last step kept the active set; false: one more
   /// iteration decides.
   bool simplified_correction_check = true;
+  /// An attempt whose friction states do not settle is cut (Simulation::attempt): where, with
+  /// the same active contact pairs over the last three iterates, the residual and the number of
+  /// slipping points both grew at each of the last two, from the fourth iteration on; false:
+  /// such an attempt runs to the iteration limit.
+  bool stick_slip_check = true;
 };
 
 class Simulation {
