@@ -52,6 +52,25 @@ Curves run_case(const std::string& deck) {
   return rec.c;
 }
 
+/// A biaxial run's warp force per increment, the largest relative residual an increment was
+/// accepted at, and the failed attempts ("t = ..., dt = ...: why"): for tests that run one deck
+/// with a Newton option on and off.
+struct WarpForceHistory : SimulationObserver {
+  const Model& m;
+  std::vector<double> time, force;
+  double worst_residual = 0;
+  std::vector<std::string> failures;
+  explicit WarpForceHistory(const Model& model) : m(model) {}
+  void on_increment(const Simulation& sim, const IncrementReport& r) override {
+    time.push_back(r.time);
+    force.push_back(textile::read_biaxial(m, sim.state().x_n, sim.reactions()).force_warp);
+    worst_residual = std::max(worst_residual, r.residual_history.back());
+  }
+  void on_attempt_failed(const Simulation&, double t, double dt, const std::string& why) override {
+    failures.push_back(fmt::format("t = {:.6g} s, dt = {:.3g} s: {}", t, dt, why));
+  }
+};
+
 /// Linear interpolation of y(x) at x0 on increasing x.
 double at(const std::vector<double>& x, const std::vector<double>& y, double x0) {
   for (std::size_t i = 1; i < x.size(); ++i)
@@ -359,22 +378,11 @@ TEST(Biaxial, TheIncrementTestOnTheSimplifiedCorrectionSparesTheConfirmingIterat
   // iteration (formulation.md "Solution"). The last correction bounds the error of the point
   // it started from, the simplified one estimates that of the point reached: the same answer
   // to the tolerance, an iteration fewer in most increments.
-  struct Curve : SimulationObserver {
-    const Model& m;
-    std::vector<double> time, force;
-    double worst_residual = 0; ///< the largest relative residual an increment was accepted at
-    explicit Curve(const Model& model) : m(model) {}
-    void on_increment(const Simulation& sim, const IncrementReport& r) override {
-      time.push_back(r.time);
-      force.push_back(textile::read_biaxial(m, sim.state().x_n, sim.reactions()).force_warp);
-      worst_residual = std::max(worst_residual, r.residual_history.back());
-    }
-  };
   const auto run = [](const Model& m, bool simplified) {
     SimulationOptions options;
     options.simplified_correction_check = simplified;
     Simulation sim(m, options);
-    Curve rec(m);
+    WarpForceHistory rec(m);
     sim.run(&rec);
     std::printf("simplified correction check %s: %d increments, %d Newton iterations, accepted "
                 "at relative residuals up to %.2e; warp force %.9f N\n",
@@ -413,20 +421,6 @@ TEST(Biaxial, AnAttemptWhoseStickAndSlipDoNotSettleIsCutBeforeTheIterationLimit)
   // number of slipping points that both grew twice running cut the attempt (the step is halved,
   // as at the iteration limit; SimulationOptions::stick_slip_check). The frictional 16 x 16
   // weave in increments of up to 0.04 s meets it in its toe.
-  struct Record : SimulationObserver {
-    const Model& m;
-    std::vector<double> time, force;
-    std::vector<std::string> failures;
-    explicit Record(const Model& model) : m(model) {}
-    void on_increment(const Simulation& sim, const IncrementReport& r) override {
-      time.push_back(r.time);
-      force.push_back(textile::read_biaxial(m, sim.state().x_n, sim.reactions()).force_warp);
-    }
-    void on_attempt_failed(const Simulation&, double t, double dt,
-                           const std::string& why) override {
-      failures.push_back(fmt::format("t = {:.6g} s, dt = {:.3g} s: {}", t, dt, why));
-    }
-  };
   std::string deck = frictional_weave_deck(16, 0.11364e-3, 1.0);
   for (const char* key : {"\ndt = ", "\ndt_max = "}) {
     const std::size_t at = deck.find(key);
@@ -438,7 +432,7 @@ TEST(Biaxial, AnAttemptWhoseStickAndSlipDoNotSettleIsCutBeforeTheIterationLimit)
     SimulationOptions options;
     options.stick_slip_check = check;
     Simulation sim(m, options);
-    Record rec(m);
+    WarpForceHistory rec(m);
     sim.run(&rec);
     std::printf("stick and slip check %s: %d increments, %d Newton iterations; warp force "
                 "%.9f N\n",
