@@ -71,6 +71,22 @@ struct WarpForceHistory : SimulationObserver {
   }
 };
 
+/// Runs `m` with `options`, prints what the run took (`label` first) and returns its Newton
+/// iterations and history.
+std::pair<int, WarpForceHistory> run_history(const Model& m, const SimulationOptions& options,
+                                             const std::string& label) {
+  Simulation sim(m, options);
+  WarpForceHistory rec(m);
+  sim.run(&rec);
+  std::printf("%s: %d increments, %d Newton iterations, accepted at relative residuals up to "
+              "%.2e; warp force %.9f N\n",
+              label.c_str(), sim.state().increment, sim.total_iterations(), rec.worst_residual,
+              rec.force.back());
+  for (const std::string& f : rec.failures)
+    std::printf("  failed: %s\n", f.c_str());
+  return {sim.total_iterations(), rec};
+}
+
 /// Linear interpolation of y(x) at x0 on increasing x.
 double at(const std::vector<double>& x, const std::vector<double>& y, double x0) {
   for (std::size_t i = 1; i < x.size(); ++i)
@@ -381,14 +397,8 @@ TEST(Biaxial, TheIncrementTestOnTheSimplifiedCorrectionSparesTheConfirmingIterat
   const auto run = [](const Model& m, bool simplified) {
     SimulationOptions options;
     options.simplified_correction_check = simplified;
-    Simulation sim(m, options);
-    WarpForceHistory rec(m);
-    sim.run(&rec);
-    std::printf("simplified correction check %s: %d increments, %d Newton iterations, accepted "
-                "at relative residuals up to %.2e; warp force %.9f N\n",
-                simplified ? "on" : "off", sim.state().increment, sim.total_iterations(),
-                rec.worst_residual, rec.force.back());
-    return std::pair{sim.total_iterations(), rec};
+    return run_history(m, options,
+                       fmt::format("simplified correction check {}", simplified ? "on" : "off"));
   };
   // The paper's fabric and test, frictionless and with an elastic slip.
   for (const bool friction : {false, true}) {
@@ -431,16 +441,7 @@ TEST(Biaxial, AnAttemptWhoseStickAndSlipDoNotSettleIsCutBeforeTheIterationLimit)
   const auto run = [&m](bool check) {
     SimulationOptions options;
     options.stick_slip_check = check;
-    Simulation sim(m, options);
-    WarpForceHistory rec(m);
-    sim.run(&rec);
-    std::printf("stick and slip check %s: %d increments, %d Newton iterations; warp force "
-                "%.9f N\n",
-                check ? "on" : "off", sim.state().increment, sim.total_iterations(),
-                rec.force.back());
-    for (const std::string& f : rec.failures)
-      std::printf("  failed: %s\n", f.c_str());
-    return std::pair{sim.total_iterations(), rec};
+    return run_history(m, options, fmt::format("stick and slip check {}", check ? "on" : "off"));
   };
   const auto [iterations, cut] = run(true);
   const auto [limit_iterations, at_limit] = run(false);
