@@ -15,6 +15,8 @@
 // which is symmetric because alpha enters additively within a step. A rigid motion leaves Gamma and
 // K unchanged, so it produces no internal force.
 
+#include "engine/state/gauss_state.hpp"
+
 #include <Eigen/Core>
 #include <array>
 
@@ -40,12 +42,6 @@ struct BeamReference {
   std::array<Eigen::Vector3d, 2> gamma0;
   /// Reference section rotation at each Gauss point.
   std::array<Eigen::Matrix3d, 2> Q0;
-};
-
-/// History of a Gauss point: values at the last converged step.
-struct GaussState {
-  Eigen::Matrix3d Q_n = Eigen::Matrix3d::Identity(); ///< section rotation
-  Eigen::Vector3d kappa_n = Eigen::Vector3d::Zero(); ///< spatial curvature change, 1/m
 };
 
 /// Current nodal values of one element.

@@ -1,7 +1,7 @@
 #pragma once
 // The state of a run: current unknowns and the history of the last converged increment.
 
-#include "engine/beam/beam_element.hpp"
+#include "engine/state/gauss_state.hpp"
 
 #include <Eigen/Core>
 #include <array>
