@@ -1281,13 +1281,14 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
                          model_.node_label(worst_dof >= 0 ? worst_dof / 6 : 0),
                          worst_dof >= 0 ? dof_name(worst_dof % 6) : "-",
                          worst_dof >= 0 ? on_spline(model_, worst_dof / 6) : "");
-    // Stick and slip that Newton does not settle: with the same active pairs over the last three
-    // iterates (the closings done), the residual and the number of slipping points both grew at
-    // each of the last two. Traced on the frictional 48 x 48 weave's toe, such attempts went on
-    // growing to the iteration limit (docs/performance.md, "Stick and slip that do not settle");
-    // they are cut here and the step halved as at the limit. Abaqus's time incrementation
-    // control cuts after 4 iterations where the residual grows twice running; without the slip's
-    // growth, that also cuts frictionless weaves' toe increments that converge.
+    // Stick and slip that Newton does not settle: with the same number of active pairs over the
+    // last three iterates (the closings done; the pairs' fingerprint, active_set, changes also
+    // where a point passes a knot to the next pair), the residual and the number of slipping points
+    // both grew at each of the last two. Traced on the frictional 48 x 48 weave's toe, such
+    // attempts went on growing to the iteration limit (docs/performance.md, "Stick and slip that do
+    // not settle"); they are cut here and the step halved as at the limit. Abaqus's time
+    // incrementation control cuts after 4 iterations where the residual grows twice running;
+    // without the slip's growth, that also cuts frictionless weaves' toe increments that converge.
     if (contact_)
       contact_history.push_back({contact_->summary().active, contact_->summary().slip});
     if (options_.stick_slip_check && iter >= 4 && contact_history.size() >= 3) {

@@ -177,9 +177,9 @@ struct SimulationOptions {
   /// iteration decides.
   bool simplified_correction_check = true;
   /// An attempt whose friction states do not settle is cut (Simulation::attempt): where, with
-  /// the same active contact pairs over the last three iterates, the residual and the number of
-  /// slipping points both grew at each of the last two, from the fourth iteration on; false:
-  /// such an attempt runs to the iteration limit.
+  /// the same number of active contact pairs over the last three iterates, the residual and the
+  /// number of slipping points both grew at each of the last two, from the fourth iteration on;
+  /// false: such an attempt runs to the iteration limit.
   bool stick_slip_check = true;
 };
 

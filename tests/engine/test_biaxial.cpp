@@ -427,7 +427,7 @@ TEST(Biaxial, TheIncrementTestOnTheSimplifiedCorrectionSparesTheConfirmingIterat
 }
 
 TEST(Biaxial, AnAttemptWhoseStickAndSlipDoNotSettleIsCutBeforeTheIterationLimit) {
-  // Simulation::attempt: with the same active pairs over three iterates, a residual and a
+  // Simulation::attempt: with the same number of active pairs over three iterates, a residual and a
   // number of slipping points that both grew twice running cut the attempt (the step is halved,
   // as at the iteration limit; SimulationOptions::stick_slip_check). The frictional 16 x 16
   // weave in increments of up to 0.04 s meets it in its toe.
