@@ -746,11 +746,14 @@ private:
     const double t0 = 0.0;
     const double done = (r.time - t0) / std::max(t_end_ - t0, 1e-300);
     const double eta = done > 0 ? elapsed * (1 - done) / done : -1;
-    const std::string line =
-        fmt::format("step {}/{}  t = {:.5g}/{:.5g} s  dt = {:.3g} s  increment {}  iterations {} "
-                    "(total {}){}  elapsed {}  ETA {}",
-                    r.step + 1, model_.steps.size(), r.time, t_end_, r.dt, r.increment,
-                    r.iterations, iterations_, contact_status_, hms(elapsed), hms(eta));
+    const std::string line = fmt::format(
+        "step {}/{}  t = {:.5g}/{:.5g} s  dt = {:.3g} s  increment {}  iterations {} "
+        "({}total {}){}  elapsed {}  ETA {}",
+        r.step + 1, model_.steps.size(), r.time, t_end_, r.dt, r.increment, r.iterations,
+        r.closing_iterations > 0
+            ? fmt::format("{} of them closing crossings; ", r.closing_iterations)
+            : std::string(),
+        iterations_, contact_status_, hms(elapsed), hms(eta));
     clear_line();
     if (tty_)
       fmt::print(stderr, "{}", line);

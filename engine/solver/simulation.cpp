@@ -653,13 +653,11 @@ std::pair<double, double> Simulation::largest_nodal_motion(const Eigen::VectorXd
       });
 }
 
-double Simulation::limit_correction(const Eigen::VectorXd& delta, double lambda,
-                                    bool from_converged, double& du, double& da) {
+Simulation::CorrectionLimit Simulation::limit_correction(const Eigen::VectorXd& delta,
+                                                         double lambda, bool from_converged) {
   const int n = state_.n_nodes();
   const std::vector<int>& eq = assembler_->equations();
-  const auto [largest_du, largest_da] = largest_nodal_motion(delta);
-  du = largest_du;
-  da = largest_da;
+  const auto [du, da] = largest_nodal_motion(delta);
   // Step limit: no node moves by more than the smallest contact radius in one correction
   // (formulation.md "Solution"). A larger correction comes from a near-mechanism of the
   // tangent (a yarn turning about the line through its pinned ends, a floating yarn) and
@@ -685,10 +683,12 @@ double Simulation::limit_correction(const Eigen::VectorXd& delta, double lambda,
     });
     if (from_converged)
       predictor_motion_ = state_.x - state_.x_n;
-    lambda = std::min(
-        lambda, closing_limit(correction_motion_, from_converged ? &predictor_motion_ : nullptr));
+    const double closing =
+        closing_limit(correction_motion_, from_converged ? &predictor_motion_ : nullptr);
+    if (closing < lambda)
+      return {closing, du, da, true};
   }
-  return lambda;
+  return {lambda, du, da, false};
 }
 
 std::string Simulation::factorize_tangent() {
@@ -1129,6 +1129,20 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   double lambda = 1;     // damping: the fraction of delta applied
   double last_du = 0;    // m, largest nodal translation of delta
   double last_da = 0;    // largest nodal Rodrigues increment of delta
+  // Iterates reached by a correction the closing limit cut, with more active pairs than any
+  // iterate of the attempt before, count apart from max_iterations
+  // (SimulationOptions::closing_iterations_apart): crossings closing, each such iterate lets those
+  // nearest close (traced on the 96 x 96 weave's toe: 7 to 17 per increment, then Newton
+  // quadratic in 3 to 5; docs/performance.md, "The 96 x 96 weave's toe, traced"). A cut iterate
+  // that closes nothing new (contacts opening and closing again: the frictional bias extension's
+  // failed attempts) counts as any other. The attempt fails after max_iterations others or
+  // kClosingIterationFactor times it in all.
+  bool closing_cut = false; // the point evaluated next was reached by a correction the limit cut
+  int closing_iterates = 0;
+  int most_active = -1; // the most active pairs at an iterate of the attempt so far
+  const int iteration_bound = options_.closing_iterations_apart
+                                  ? kClosingIterationFactor * step.max_iterations
+                                  : step.max_iterations;
   const auto lap_from = [](std::chrono::steady_clock::time_point& tick, double& total) {
     const auto now = std::chrono::steady_clock::now();
     total += std::chrono::duration<double>(now - tick).count();
@@ -1160,11 +1174,18 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   // (lambda, and the largest nodal translation and rotation) where the contact's evaluation was
   // its start's.
   Eigen::VectorXd chosen_correction;
-  double chosen_lambda = -1, chosen_du = 0, chosen_da = 0;
-  for (int iter = 0; iter <= step.max_iterations; ++iter) {
+  CorrectionLimit chosen_limit{-1}; // none where lambda < 0
+  for (int iter = 0; iter <= iteration_bound; ++iter) {
     if (stop_requested())
       throw_interrupted();
     const Evaluation ev = evaluate(step, nm, t_new, true, residual);
+    if (contact_ && ev.veto.empty()) {
+      const int active = contact_->summary().active;
+      if (closing_cut && options_.closing_iterations_apart && active > most_active)
+        ++closing_iterates;
+      most_active = std::max(most_active, active);
+    }
+    closing_cut = false;
     // The test applies where the last step changed which contact pairs are active: there the
     // residual has a kink the tangent does not see, and full steps can cycle between two active
     // sets. Smooth steps are full Newton steps (quadratic convergence, and no test that a stiff
@@ -1254,6 +1275,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     }
     if (residual_ok && increment_ok) {
       report.iterations = iter;
+      report.closing_iterations = closing_iterates;
       // Accepted at the round-off floor rather than within the tolerance asked.
       report.at_floor = at_floor && (ev.r_force > step.tol_force * ev.ref_force ||
                                      ev.r_moment > step.tol_force * ev.ref_moment);
@@ -1274,11 +1296,14 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
                                             .solve(Eigen::Vector3d(reactions_.col(i).tail<3>()));
       return {};
     }
-    if (iter == step.max_iterations)
-      return fmt::format("no convergence in {} iterations (relative residual {:.3e}); worst: node "
-                         "{} DOF {}{}",
-                         step.max_iterations, ev.relative,
-                         model_.node_label(worst_dof >= 0 ? worst_dof / 6 : 0),
+    if (iter - closing_iterates >= step.max_iterations || iter == iteration_bound)
+      return fmt::format("no convergence in {} iterations{} (relative residual {:.3e}); worst: "
+                         "node {} DOF {}{}",
+                         iter,
+                         closing_iterates > 0
+                             ? fmt::format(", {} of them closing crossings", closing_iterates)
+                             : std::string(),
+                         ev.relative, model_.node_label(worst_dof >= 0 ? worst_dof / 6 : 0),
                          worst_dof >= 0 ? dof_name(worst_dof % 6) : "-",
                          worst_dof >= 0 ? on_spline(model_, worst_dof / 6) : "");
     // Stick and slip that Newton does not settle: with the same number of active pairs over the
@@ -1371,12 +1396,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
         Eigen::VectorXd ends_delta = solver_->solve(rhs_);
         Eigen::VectorXd secant_delta = solver_->solve(secant_rhs_);
         lap_from(tick, stage_times_.solve);
-        double ends_du = 0, ends_da = 0, secant_du = 0, secant_da = 0;
-        const double ends_lambda = limit_correction(ends_delta, 1.0, true, ends_du, ends_da);
+        const CorrectionLimit ends_limit = limit_correction(ends_delta, 1.0, true);
         secant_chosen_ = true;
         predict(t_new, dt);
-        const double secant_lambda =
-            limit_correction(secant_delta, 1.0, true, secant_du, secant_da);
+        const CorrectionLimit secant_limit = limit_correction(secant_delta, 1.0, true);
         // The corrected point's relative residual and its simplified correction's scaled norm.
         const auto corrected = [&](bool secant, const Eigen::VectorXd& d, double l) {
           secant_chosen_ = secant;
@@ -1398,9 +1421,9 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
                                            simplified.allFinite() ? scaled_norm(simplified) : none};
         };
         std::tie(report.secant_corrected, report.secant_next_correction) =
-            corrected(true, secant_delta, secant_lambda);
+            corrected(true, secant_delta, secant_limit.lambda);
         std::tie(report.ends_corrected, report.ends_next_correction) =
-            corrected(false, ends_delta, ends_lambda);
+            corrected(false, ends_delta, ends_limit.lambda);
         secant_chosen_ = report.secant_next_correction < report.ends_next_correction;
         if (contact_)
           contact_->begin_attempt();
@@ -1414,9 +1437,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
               std::hypot(at.r_force / residual_scale_force, at.r_moment / residual_scale_moment);
         }
         chosen_correction = secant_chosen_ ? std::move(secant_delta) : std::move(ends_delta);
-        chosen_lambda = secant_chosen_ ? secant_lambda : ends_lambda;
-        chosen_du = secant_chosen_ ? secant_du : ends_du;
-        chosen_da = secant_chosen_ ? secant_da : ends_da;
+        chosen_limit = secant_chosen_ ? secant_limit : ends_limit;
       }
       secant_trial_ = false;
     }
@@ -1471,21 +1492,27 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     report.energy_history.push_back(std::abs(delta.dot(rhs_)));
     lambda = options_.line_search && !damping_gave_up ? next_lambda : 1.0;
     next_lambda = 1;
-    if (chosen_lambda >= 0) { // the trial's, limited where the contact's evaluation was its start's
-      lambda = std::min(lambda, chosen_lambda);
-      last_du = chosen_du;
-      last_da = chosen_da;
-      chosen_lambda = -1;
+    // The trial's limit where it chose the correction (from the contact's evaluation at its start).
+    CorrectionLimit limit;
+    if (chosen_limit.lambda >= 0) {
+      limit = chosen_limit;
+      limit.closing = limit.closing && limit.lambda < lambda;
+      limit.lambda = std::min(lambda, limit.lambda);
+      chosen_limit.lambda = -1;
     } else {
-      lambda = limit_correction(delta, lambda, from_converged, last_du, last_da);
+      limit = limit_correction(delta, lambda, from_converged);
     }
+    lambda = limit.lambda;
+    last_du = limit.du;
+    last_da = limit.da;
+    closing_cut = limit.closing;
     if (options_.mixed_integration_point)
       start_mixed_stresses(delta, from_converged);
     move_along(delta, lambda);
   }
   // The last iteration's iterate was vetoed and damped back (the loop's `continue`).
   return fmt::format("no convergence in {} iterations (the last iterates were vetoed: {})",
-                     step.max_iterations, last_veto);
+                     iteration_bound, last_veto);
 }
 
 void Simulation::commit(const SolutionStep& step, double dt, double t_new) {

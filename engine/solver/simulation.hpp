@@ -41,11 +41,14 @@ class Interrupted : public std::runtime_error {
 
 /// What one converged increment took.
 struct IncrementReport {
-  int step = 0;            ///< index of the solution step
-  int increment = 0;       ///< converged increments since the start of the run
-  double time = 0;         ///< s, at the end of the increment
-  double dt = 0;           ///< s
-  int iterations = 0;      ///< Newton iterations of the converged attempt
+  int step = 0;       ///< index of the solution step
+  int increment = 0;  ///< converged increments since the start of the run
+  double time = 0;    ///< s, at the end of the increment
+  double dt = 0;      ///< s
+  int iterations = 0; ///< Newton iterations of the converged attempt
+  /// Of them, iterates reached by a correction the closing limit cut while crossings closed,
+  /// counted apart from max_iterations (SimulationOptions::closing_iterations_apart).
+  int closing_iterations = 0;
   int failed_attempts = 0; ///< attempts halved before this one converged
   /// max(force, moment) residual relative to its reference, before each solve and at the end.
   std::vector<double> residual_history;
@@ -181,7 +184,18 @@ struct SimulationOptions {
   /// number of slipping points both grew at each of the last two, from the fourth iteration on;
   /// false: such an attempt runs to the iteration limit.
   bool stick_slip_check = true;
+  /// Iterates reached by a correction the closing limit cut (crossings closing, the tangent
+  /// lacking them) count apart from the Newton iterations that `max_iterations` bounds, under a
+  /// bound of their own: an attempt fails after `max_iterations` others or after
+  /// kClosingIterationFactor times `max_iterations` in all (Simulation::attempt; as Abaqus counts
+  /// severe discontinuity iterations apart from equilibrium iterations). false: every iterate
+  /// counts toward `max_iterations`.
+  bool closing_iterations_apart = true;
 };
+
+/// The bound on all iterates of an attempt, in multiples of `max_iterations`, where the closing
+/// limit's iterates count apart (SimulationOptions::closing_iterations_apart).
+inline constexpr int kClosingIterationFactor = 3;
 
 class Simulation {
 public:
@@ -350,9 +364,16 @@ private:
   /// lambda: the step limit (max_contact_step_) and the closing limit of its nodal translations
   /// from the contact's last evaluation, moved by the predictor's motion from the converged
   /// state where from_converged (formulation.md "Solution"); with the line search only. Sets
-  /// du (m) and da to delta's largest nodal translation and Rodrigues increment.
-  double limit_correction(const Eigen::VectorXd& delta, double lambda, bool from_converged,
-                          double& du, double& da);
+  /// The fraction of a correction to apply and what bounds it (Simulation::limit_correction).
+  struct CorrectionLimit {
+    double lambda = 1;    // the fraction of the correction to apply
+    double du = 0;        // m, the correction's largest nodal translation (whole)
+    double da = 0;        // its largest nodal Rodrigues increment (whole)
+    bool closing = false; // the closing limit cut the fraction below the others' bounds
+  };
+  /// du and da are delta's largest nodal translation and Rodrigues increment.
+  CorrectionLimit limit_correction(const Eigen::VectorXd& delta, double lambda,
+                                   bool from_converged);
   /// Analyses the tangent's pattern where it changed since the last analysis (collectively over
   /// several processes handing in their own entries) and factorises the assembler's matrix, then
   /// looks at the stop request (throws Interrupted). Returns the solver's message where it

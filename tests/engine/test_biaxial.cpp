@@ -58,11 +58,14 @@ Curves run_case(const std::string& deck) {
 struct WarpForceHistory : SimulationObserver {
   const Model& m;
   std::vector<double> time, force;
+  std::vector<int> iterations, closing_iterations; // of each increment's converged attempt
   double worst_residual = 0;
   std::vector<std::string> failures;
   explicit WarpForceHistory(const Model& model) : m(model) {}
   void on_increment(const Simulation& sim, const IncrementReport& r) override {
     time.push_back(r.time);
+    iterations.push_back(r.iterations);
+    closing_iterations.push_back(r.closing_iterations);
     force.push_back(textile::read_biaxial(m, sim.state().x_n, sim.reactions()).force_warp);
     worst_residual = std::max(worst_residual, r.residual_history.back());
   }
@@ -445,14 +448,15 @@ TEST(Biaxial, AnAttemptWhoseStickAndSlipDoNotSettleIsCutBeforeTheIterationLimit)
   };
   const auto [iterations, cut] = run(true);
   const auto [limit_iterations, at_limit] = run(false);
-  // The same attempts fail, each halved: the same increments. Measured: 100 against 107
-  // iterations; the failed attempt cut after 13 iterations instead of 20.
+  // The same attempts fail, each halved: the same increments. Measured: 100 against 111
+  // iterations; the failed attempt cut after 13 iterations instead of 24 (20 and 4 where
+  // crossings closed, counted apart: SimulationOptions::closing_iterations_apart).
   ASSERT_EQ(cut.failures.size(), at_limit.failures.size());
   ASSERT_FALSE(cut.failures.empty());
   for (std::size_t i = 0; i < cut.failures.size(); ++i) {
     EXPECT_NE(cut.failures[i].find("stick and slip not settling"), std::string::npos)
         << cut.failures[i];
-    EXPECT_NE(at_limit.failures[i].find("no convergence in 20 iterations"), std::string::npos)
+    EXPECT_NE(at_limit.failures[i].find("no convergence in "), std::string::npos)
         << at_limit.failures[i];
   }
   EXPECT_LT(iterations, limit_iterations);
@@ -462,6 +466,45 @@ TEST(Biaxial, AnAttemptWhoseStickAndSlipDoNotSettleIsCutBeforeTheIterationLimit)
   const double end = std::abs(at_limit.force.back());
   for (std::size_t i = 0; i < cut.force.size(); ++i)
     EXPECT_NEAR(cut.force[i], at_limit.force[i], 1e-9 * end) << "at t = " << cut.time[i] << " s";
+}
+
+TEST(Biaxial, IteratesWhereCrossingsCloseCountApartFromTheIterationLimit) {
+  // Simulation::attempt: an iterate reached by a correction the closing limit cut, with more
+  // active pairs than any iterate of the attempt before it, counts apart from max_iterations,
+  // under a bound of kClosingIterationFactor times it in all
+  // (SimulationOptions::closing_iterations_apart; as Abaqus counts severe discontinuity
+  // iterations apart from equilibrium iterations). The TexGen plain weave's crossings close
+  // over a few increments of its toe, in attempts that reached the limit while still closing.
+  const Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" /
+                            "biaxial-texgen-pweave.toml");
+  ASSERT_EQ(m.steps.size(), 1u);
+  const int limit = m.steps[0].max_iterations;
+  const auto run = [&m](bool apart) {
+    SimulationOptions options;
+    options.closing_iterations_apart = apart;
+    return run_history(m, options,
+                       fmt::format("closing iterates {}", apart ? "counted apart" : "counted"));
+  };
+  const auto [iterations, apart] = run(true);
+  const auto [counted_iterations, counted] = run(false);
+  // Measured: 50 increments, 169 iterations, no failed attempt against 53, 217 and two failed
+  // attempts (t = 0.02 and 0.04 s, each at the limit while closing).
+  EXPECT_LT(apart.failures.size(), counted.failures.size());
+  EXPECT_LT(iterations, counted_iterations);
+  // Accepted beyond the limit, the excess its closing iterates; none counted apart without.
+  int beyond = 0;
+  for (std::size_t i = 0; i < apart.iterations.size(); ++i) {
+    EXPECT_LE(apart.iterations[i] - apart.closing_iterations[i], limit) << "increment " << i;
+    EXPECT_LE(apart.iterations[i], kClosingIterationFactor * limit) << "increment " << i;
+    beyond += apart.iterations[i] > limit;
+  }
+  std::printf("%d increments accepted beyond %d iterations\n", beyond, limit);
+  EXPECT_GE(beyond, 1) << "the case no longer shows what the option is for";
+  for (const int c : counted.closing_iterations)
+    EXPECT_EQ(c, 0);
+  // The same end of the test along other increments: the same force (measured 1.7e-8 of it
+  // apart).
+  EXPECT_NEAR(apart.force.back(), counted.force.back(), 1e-6 * std::abs(counted.force.back()));
 }
 
 TEST(Biaxial, TensionTestsPredictWithTheLastIncrementWhereItLeavesTheShorterCorrection) {
