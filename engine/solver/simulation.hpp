@@ -184,8 +184,9 @@ struct SimulationOptions {
   /// number of slipping points both grew at each of the last two, from the fourth iteration on;
   /// false: such an attempt runs to the iteration limit.
   bool stick_slip_check = true;
-  /// Iterates reached by a correction the closing limit cut (crossings closing, the tangent
-  /// lacking them) count apart from the Newton iterations that `max_iterations` bounds, under a
+  /// Iterates reached by a correction the closing limit cut, each with more active contact pairs
+  /// than any iterate of the attempt before it (crossings closing, the tangent lacking them),
+  /// count apart from the Newton iterations that `max_iterations` bounds, under a
   /// bound of their own: an attempt fails after `max_iterations` others or after
   /// kClosingIterationFactor times `max_iterations` in all (Simulation::attempt; as Abaqus counts
   /// severe discontinuity iterations apart from equilibrium iterations). false: every iterate
@@ -360,10 +361,6 @@ private:
   /// and at an explicit step's output increments (CentralDifference::run, which then takes its
   /// new share of the nodes); returns a description of the change for the user, or nothing.
   std::string rebalance();
-  /// The fraction of a Newton correction delta (over the free equations) to apply, at most
-  /// lambda: the step limit (max_contact_step_) and the closing limit of its nodal translations
-  /// from the contact's last evaluation, moved by the predictor's motion from the converged
-  /// state where from_converged (formulation.md "Solution"); with the line search only. Sets
   /// The fraction of a correction to apply and what bounds it (Simulation::limit_correction).
   struct CorrectionLimit {
     double lambda = 1;    // the fraction of the correction to apply
@@ -371,7 +368,12 @@ private:
     double da = 0;        // its largest nodal Rodrigues increment (whole)
     bool closing = false; // the closing limit cut the fraction below the others' bounds
   };
-  /// du and da are delta's largest nodal translation and Rodrigues increment.
+  /// The fraction of a Newton correction delta (over the free equations) to apply, at most
+  /// lambda: the step limit (max_contact_step_) and the closing limit of its nodal translations
+  /// from the contact's last evaluation, moved by the predictor's motion from the converged
+  /// state where from_converged (formulation.md "Solution"); with the line search only. Also
+  /// delta's largest nodal translation and Rodrigues increment, and whether the closing limit
+  /// was the bound that acted.
   CorrectionLimit limit_correction(const Eigen::VectorXd& delta, double lambda,
                                    bool from_converged);
   /// Analyses the tangent's pattern where it changed since the last analysis (collectively over
