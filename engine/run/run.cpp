@@ -662,7 +662,8 @@ public:
       if (out->checkpoint)
         write_checkpoint(*out->checkpoint);
     });
-    iterations_ += r.iterations;
+    // The run's Newton iterations, failed attempts' included (as the closing `done` line).
+    iterations_ = sim.total_iterations();
     if (options_.progress)
       print_progress(r, last);
     stop_after(options_.stop_after, r, last);

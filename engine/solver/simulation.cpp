@@ -1161,7 +1161,9 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   // nonlinearity along delta, and is evaluated there; a configuration the contact vetoes halves
   // lambda at once. After a damped step the next correction starts from min(1, 4 lambda).
   double next_lambda = 1;
-  std::vector<double> moment_history;              // N m, moment residual norm of each iteration
+  std::vector<double> moment_history; // N m, moment residual norm of each iteration
+  // Each iteration's residual on the attempt's fixed scale (scaled_residual below), 1.
+  std::vector<double> scaled_history;
   std::vector<std::array<int, 2>> contact_history; // active and slipping points of each iteration
   bool damping_gave_up = false;                    // no damping made the corrections contract
   std::uint64_t last_active_set = 0; // of the point the correction in use started from
@@ -1212,16 +1214,28 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     double scaled_residual =
         std::hypot(ev.r_force / residual_scale_force, ev.r_moment / residual_scale_moment);
     const std::uint64_t active_set = contact_ ? contact_->summary().active_set : 0;
+    scaled_history.push_back(scaled_residual);
     // Also where the residual has fallen by less than a fifth over two iterations: full steps are
     // cycling, e.g. between stick and slip of a point whose sliding reverses (the same
-    // fingerprint on both sides of the cycle).
-    const std::vector<double>& history = report.residual_history;
-    const bool stagnating =
-        history.size() >= 3 && history.back() > 0.8 * history[history.size() - 3];
+    // fingerprint on both sides of the cycle). On the attempt's fixed scale (scaled_residual),
+    // or on the relative residual (stagnation_on_fixed_scale false): while crossings close, that
+    // one's reference, the iterate's largest nodal force, is the out-of-balance force itself, so
+    // it stayed near 4.94 on the frictional 6 x 6 weave's toe while the force residual fell
+    // from 2 700 N to 780 N, and at 780 N the damping then backtracked as if it stagnated.
+    const std::vector<double>& history =
+        options_.stagnation_on_fixed_scale ? scaled_history : report.residual_history;
+    const std::size_t h = history.size();
+    const bool stagnating = h >= 3 && history[h - 1] > 0.8 * history[h - 3];
+    // On the fixed scale also over the last iteration: a full step that kept the contact and
+    // friction states and fell by less than a fifth is damped at once (the 96 x 96 weave's toe
+    // stalled four full steps at 0.08 with its states unchanged: docs/performance.md).
+    const bool stalled =
+        options_.stagnation_on_fixed_scale && h >= 2 && history[h - 1] > 0.8 * history[h - 2];
     // Both are contact's: a model without contact takes full Newton steps (a slender rod's
     // residual stagnates on its path through large axial forces, and damping it there cost the
     // L / r = 1e5 roll-up 469 iterations against 324 undamped: docs/performance.md).
-    const bool damping = can_damp && contact_ && (active_set != last_active_set || stagnating);
+    const bool damping =
+        can_damp && contact_ && (active_set != last_active_set || stagnating || stalled);
 
     // Converged: the residual within the tolerance of its reference (or at its round-off floor)
     // and the last correction, as applied, within the tolerance of the increment's motion.
@@ -1366,6 +1380,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
             predict(t_new, dt);
             report.residual_history.clear();
             moment_history.clear();
+            scaled_history.clear();
             residual_scale_force = residual_scale_moment = 0;
             first_from_converged = at_converged.veto.empty() && secant_active_set_ == converged_set;
             --iter;
@@ -1435,6 +1450,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
           moment_history.back() = at.r_moment;
           scaled_residual =
               std::hypot(at.r_force / residual_scale_force, at.r_moment / residual_scale_moment);
+          scaled_history.back() = scaled_residual;
         }
         chosen_correction = secant_chosen_ ? std::move(secant_delta) : std::move(ends_delta);
         chosen_limit = secant_chosen_ ? secant_limit : ends_limit;

@@ -192,6 +192,16 @@ struct SimulationOptions {
   /// severe discontinuity iterations apart from equilibrium iterations). false: every iterate
   /// counts toward `max_iterations`.
   bool closing_iterations_apart = true;
+  /// Full Newton steps count as stagnating, and the line search's damping acts on them, where
+  /// the residual on the attempt's fixed scale (its first iterate's reference force and moment)
+  /// fell by less than a fifth over the last iteration or the last two (Simulation::attempt).
+  /// false: where the relative residual, whose reference is the iterate's own largest nodal
+  /// force, fell by less than a fifth over the last two iterations (before 2026-12-07). That
+  /// reference moves with the residual while an increment's crossings close: the test saw
+  /// stagnation where the force residual fell (and the damping backtracked), and full steps
+  /// that stalled with unchanged contact states went on for two iterations before it acted
+  /// (docs/performance.md, "Stagnation on the attempt's fixed scale").
+  bool stagnation_on_fixed_scale = true;
 };
 
 /// The bound on all iterates of an attempt, in multiples of `max_iterations`, where the closing
