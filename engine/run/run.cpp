@@ -662,10 +662,8 @@ public:
       if (out->checkpoint)
         write_checkpoint(*out->checkpoint);
     });
-    // The run's Newton iterations, failed attempts' included (as the closing `done` line).
-    iterations_ = sim.total_iterations();
     if (options_.progress)
-      print_progress(r, last);
+      print_progress(r, sim.total_iterations(), last);
     stop_after(options_.stop_after, r, last);
   }
 
@@ -737,7 +735,9 @@ private:
       fmt::print(stderr, "\r\033[K");
   }
 
-  void print_progress(const IncrementReport& r, bool last) {
+  /// total_iterations: the run's Newton iterations, failed attempts' included (as the closing
+  /// `done` line counts them).
+  void print_progress(const IncrementReport& r, int total_iterations, bool last) {
     const auto now = Clock::now();
     const double elapsed = std::chrono::duration<double>(now - start_).count();
     const double since = std::chrono::duration<double>(now - last_print_).count();
@@ -754,7 +754,7 @@ private:
         r.closing_iterations > 0
             ? fmt::format("{} of them closing crossings; ", r.closing_iterations)
             : std::string(),
-        iterations_, contact_status_, hms(elapsed), hms(eta));
+        total_iterations, contact_status_, hms(elapsed), hms(eta));
     clear_line();
     if (tty_)
       fmt::print(stderr, "{}", line);
@@ -776,7 +776,6 @@ private:
   bool printed_ = false;
   Clock::time_point start_, last_print_;
   double t_end_ = 0;
-  long iterations_ = 0;
   const bool friction_ = has_friction(model_);
   const bool torsion_ = has_torsional_friction(model_);
   /// With friction also: points in stick and in slip, the summed friction force and the energy

@@ -3,6 +3,7 @@
 // the same under x <-> y with z -> -z). Also: the same numbers on 1 and 2 threads, and the
 // explicit path against the implicit one (issue 6's acceptance, on a 3 x 3 weave).
 #include "convergence_message.hpp"
+#include "deck_text.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/run/run.hpp"
 #include "engine/solver/simulation.hpp"
@@ -15,9 +16,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fmt/format.h>
-#include <fstream>
 #include <gtest/gtest.h>
-#include <sstream>
 #include <tbb/global_control.h>
 
 namespace yarnsim {
@@ -153,15 +152,9 @@ TEST(Biaxial, BalancedFabricCurvesCoincide) {
 
 /// A deck of examples/ on a 4 x 4 weave (yarns 7 spacings long), everything else as given.
 Curves run_four_by_four(const std::string& deck) {
-  std::ifstream in(kExamples / deck);
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string s = text.str();
-  auto set = [&s](const std::string& key, const std::string& value) {
-    const std::size_t at = s.find("\n" + key + " = ");
-    ASSERT_NE(at, std::string::npos) << key;
-    const std::size_t end = s.find('\n', at + 1);
-    s.replace(at + 1, end - at - 1, key + " = " + value);
+  std::string s = test::example_text(deck);
+  const auto set = [&s](const std::string& key, const std::string& value) {
+    EXPECT_TRUE(test::set_key(s, key, value)) << key;
   };
   set("n_warp", "4");
   set("n_weft", "4");
@@ -256,15 +249,9 @@ TEST(PictureFrame, OneAndTwoThreadsGiveBitwiseIdenticalResults) {
 /// The paper's deck with n yarns a side (n + 3 spacings long) and `gap`, pulled over `time` s
 /// to 1.5 % x time (the paper's rate).
 std::string weave_deck(int n, double gap, double time) {
-  std::ifstream in(kExamples / "biaxial-k1.toml");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string deck = text.str();
-  const auto set = [&](const std::string& key, const std::string& value) {
-    const std::size_t at = deck.find("\n" + key + " = ");
-    ASSERT_NE(at, std::string::npos) << key;
-    const std::size_t end = deck.find('\n', at + 1);
-    deck.replace(at + 1, end - at - 1, key + " = " + value);
+  std::string deck = test::example_text("biaxial-k1.toml");
+  const auto set = [&deck](const std::string& key, const std::string& value) {
+    EXPECT_TRUE(test::set_key(deck, key, value)) << key;
   };
   const double length = (n + 3) * 4.54545e-3;
   set("n_warp", std::to_string(n));
@@ -436,11 +423,8 @@ TEST(Biaxial, AnAttemptWhoseStickAndSlipDoNotSettleIsCutBeforeTheIterationLimit)
   // as at the iteration limit; SimulationOptions::stick_slip_check). The frictional 16 x 16
   // weave in increments of up to 0.04 s meets it in its toe.
   std::string deck = frictional_weave_deck(16, 0.11364e-3, 1.0);
-  for (const char* key : {"\ndt = ", "\ndt_max = "}) {
-    const std::size_t at = deck.find(key);
-    ASSERT_NE(at, std::string::npos) << key;
-    deck.replace(at + 1, deck.find('\n', at + 1) - at - 1, std::string(key + 1) + "0.04");
-  }
+  for (const char* key : {"dt", "dt_max"})
+    ASSERT_TRUE(test::set_key(deck, key, "0.04")) << key;
   const Model m = read_deck_string(deck, "weave.toml");
   const auto run = [&m](bool check) {
     SimulationOptions options;
@@ -522,18 +506,11 @@ TEST(Biaxial, FullStepsStagnateOnTheAttemptsFixedResidualScale) {
   // while crossings close: it saw stagnation where the force residual fell, and caught full
   // steps stalled with unchanged contact states an iteration late. The paper's k = 1 fabric
   // with friction (mu = 0.2) meets both in its toe.
-  const std::filesystem::path path =
-      std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "biaxial-k1-friction.toml";
-  std::ifstream in(path);
-  ASSERT_TRUE(in) << path;
-  std::stringstream text;
-  text << in.rdbuf();
-  const auto run = [&text, &path](bool fixed, const std::string& dt_max) {
-    std::string deck = text.str();
-    const std::size_t at = deck.find("\ndt_max = ");
-    EXPECT_NE(at, std::string::npos);
-    deck.replace(at + 1, deck.find('\n', at + 1) - at - 1, "dt_max = " + dt_max);
-    const Model m = read_deck_string(deck, path.string());
+  const std::string text = test::example_text("biaxial-k1-friction.toml");
+  const auto run = [&text](bool fixed, const std::string& dt_max) {
+    std::string deck = text;
+    EXPECT_TRUE(test::set_key(deck, "dt_max", dt_max));
+    const Model m = read_deck_string(deck, "biaxial-k1-friction.toml");
     EXPECT_TRUE(has_friction(m));
     SimulationOptions options;
     options.stagnation_on_fixed_scale = fixed;

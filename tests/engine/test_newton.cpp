@@ -3,6 +3,7 @@
 // of a correction.
 
 #include "convergence_message.hpp"
+#include "deck_text.hpp"
 #include "engine/assembly/assembler.hpp"
 #include "engine/contact/contact_set.hpp"
 #include "engine/contact/contact_stage.hpp"
@@ -12,12 +13,10 @@
 
 #include <filesystem>
 #include <fmt/format.h>
-#include <fstream>
 #include <gtest/gtest.h>
 #include <limits>
 #include <memory>
 #include <numbers>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -344,13 +343,8 @@ TEST(Newton, ThePatternDropsCouplingsNoCandidateNeeds) {
   // Yarns touching from the start (gap = 0): the first increments' attempts meet candidates that
   // the converged state does not keep. Before, the pattern kept every coupling ever met (its
   // factor grew tenfold, each factorisation took 40 times as long).
-  std::ifstream in(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "biaxial-k1.toml");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string deck = text.str();
-  const std::size_t gap = deck.find("\ngap = ");
-  ASSERT_NE(gap, std::string::npos);
-  deck.replace(gap + 1, deck.find('\n', gap + 1) - gap - 1, "gap = 0.0");
+  std::string deck = test::example_text("biaxial-k1.toml");
+  ASSERT_TRUE(test::set_key(deck, "gap", "0.0"));
   const Model m = read_deck_string(deck, "gap0.toml");
   struct Watch : SimulationObserver {
     int increments = 0;
