@@ -313,8 +313,13 @@ int main(int argc, char** argv) {
                ranks > 1 ? fmt::format("{} processes of ", ranks) : "", threads, out_dir.string());
     const yarnsim::RunSummary s =
         rank == 0 ? yarnsim::run_model(model, options) : yarnsim::follow_model(model, options);
-    fmt::print(stderr, "done: {} increments, {} Newton iterations in {:.2f} s; results in {}\n",
-               s.increments, s.iterations, s.wall_seconds, out_dir.string());
+    fmt::print(stderr, "done: {} increments, {} Newton iterations{} in {:.2f} s; results in {}\n",
+               s.increments, s.iterations,
+               s.simplified_trials > 0
+                   ? fmt::format(" (and {} damped point{} judged by one solve each)",
+                                 s.simplified_trials, s.simplified_trials == 1 ? "" : "s")
+                   : std::string(),
+               s.wall_seconds, out_dir.string());
     if (s.damping_dissipation > 0)
       fmt::print(stderr,
                  "Rayleigh damping dissipated {:.4g} J, {:.3g} % of the {:.4g} J stored at the "

@@ -848,6 +848,7 @@ RunSummary summarise(const Simulation& sim, Clock::time_point start) {
   RunSummary summary;
   summary.increments = sim.state().increment;
   summary.iterations = sim.total_iterations();
+  summary.simplified_trials = sim.simplified_trials();
   summary.wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   summary.final_positions = sim.state().x_n;
   if (sim.contact())

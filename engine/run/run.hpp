@@ -18,6 +18,9 @@ namespace yarnsim {
 struct RunSummary {
   int increments = 0;
   int iterations = 0;
+  /// Damped points judged by their simplified correction (a solve without a factorisation):
+  /// evaluated points besides the Newton iterations (Simulation::simplified_trials).
+  int simplified_trials = 0;
   double wall_seconds = 0;
   Eigen::Matrix3Xd final_positions;         ///< 3 x n_nodes, m
   std::vector<ContactPoint> final_contacts; ///< active contact points at the end

@@ -590,11 +590,14 @@ public:
     lu_analysed_ = false;
   }
   void factorize(const SparseMatrix& A) override {
-    A_ = &A;
+    // GMRES's operator is the factorised tangent itself, kept: the caller assembles the next
+    // iterate's into A before it solves with this one (the simplified corrections of
+    // Simulation::attempt solve with the tangent in hand, -K(x_k)^-1 r(x_k+1)).
+    factorised_ = A;
     use_lu_ = lu_for_attempt_;
     if (!use_lu_) {
       try {
-        ldlt_.factorize(A);
+        ldlt_.factorize(factorised_);
         return;
       } catch (const LinearSolverError&) {
       }
@@ -603,7 +606,7 @@ public:
   }
   Eigen::VectorXd solve(const Eigen::VectorXd& b) override {
     if (!use_lu_) {
-      const SparseMatrix& A = *A_;
+      const SparseMatrix& A = factorised_;
       Eigen::VectorXd x;
       if (gmres([&](const Eigen::VectorXd& v) -> Eigen::VectorXd { return A * v; },
                 [&](const Eigen::VectorXd& v) { return ldlt_.solve(v); }, b, x, kTolerance,
@@ -622,17 +625,17 @@ public:
 private:
   void factorize_lu() {
     if (!lu_analysed_) {
-      lu_.analyze(*A_);
+      lu_.analyze(factorised_);
       lu_analysed_ = true;
     }
-    lu_.factorize(*A_);
+    lu_.factorize(factorised_);
     use_lu_ = true;
   }
 
   SymmetricLDLTSolver ldlt_;
   UmfpackSolver lu_;
   GmresWorkspace workspace_;
-  const SparseMatrix* A_ = nullptr; ///< the last factorised tangent (alive until its solve)
+  SparseMatrix factorised_; ///< the last factorised tangent (a copy: GMRES's operator)
   bool lu_analysed_ = false;
   bool use_lu_ = false;         ///< this system: LU
   bool lu_for_attempt_ = false; ///< GMRES failed in this attempt: LU until the next one

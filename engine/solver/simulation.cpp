@@ -1167,6 +1167,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
   std::vector<std::array<int, 2>> contact_history; // active and slipping points of each iteration
   bool damping_gave_up = false;                    // no damping made the corrections contract
   std::uint64_t last_active_set = 0; // of the point the correction in use started from
+  bool start_factorised = false; // the factorisation in hand is the tangent delta was solved with
   std::string last_veto;
   // The residual's norm at the point delta started from, in the references of the attempt's
   // first evaluation (force and moment residuals each over their reference).
@@ -1458,6 +1459,61 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       secant_trial_ = false;
     }
 
+    // The monotonicity test of the point reached along delta. Where the damping is on because
+    // the step changed the active set (not because full steps stagnate), the point is also kept
+    // where the residual fell as much as the test asks of the correction: a step that changes
+    // contacts and takes the residual from 1e4 N to 10 N (a picture frame's increment) leaves a
+    // next correction along the contacts it changed that need not be shorter, and moving back
+    // towards the predictor's residual then cost the whole attempt. Stagnating full steps
+    // (stick and slip cycling) keep the correction test alone: the residual test let them cycle
+    // (the paper's k = 1 fabric with mu = 0.2: 287 against 462 iterations). judged: the point
+    // x + lambda delta judged by a correction from it, 1 where it is kept, else the lambda to
+    // move back to.
+    const auto judged = [&](const Eigen::VectorXd& correction) {
+      constexpr double none = std::numeric_limits<double>::infinity();
+      const bool finite = correction.allFinite();
+      if ((finite && scaled_norm(correction) <= (1 - lambda / 4) * delta_norm) ||
+          (!stagnating && scaled_residual <= (1 - lambda / 4) * start_residual))
+        return 1.0;
+      const double h = finite ? 2 * scaled_norm(correction - (1 - lambda) * delta) /
+                                    (lambda * lambda * delta_norm)
+                              : none;
+      return std::max(std::min(0.5 * lambda, 1 / h), 0.1 * lambda);
+    };
+
+    // Where a point moves back: along delta, and the next correction starts from min(1, 4 lambda).
+    // Below kMinDamping the damping gives up for this attempt and Newton goes on with full steps
+    // from the point reached (the iteration limit decides).
+    const auto moved_back = [&](double back) {
+      damping_gave_up = back < kMinDamping;
+      if (back >= 1 || damping_gave_up)
+        return false;
+      move_along(delta, back - lambda);
+      lambda = back;
+      next_lambda = std::min(1.0, 4 * lambda);
+      return true;
+    };
+
+    // The monotonicity test on the simplified correction (SimulationOptions::
+    // simplified_monotonicity; NLEQ-ERR, Deuflhard 2004 sec. 3.3): where the damped step kept
+    // the active set, the correction from the point reached with the tangent delta was solved
+    // with (its factorisation still in hand: no rejected point factorised since), one solve where
+    // the next correction costs a factorisation too. The same test and the same move back as the
+    // next correction's below. Where the step changed the active set the tangent in hand lacks
+    // the pairs it changed, and its simplified correction is no measure of the point
+    // (docs/performance.md, "The simplified correction judges damped points").
+    const bool simplified_test = options_.simplified_monotonicity && damping && !damping_gave_up &&
+                                 chosen_correction.size() == 0 && start_factorised &&
+                                 active_set == last_active_set;
+    if (simplified_test) {
+      auto tick = std::chrono::steady_clock::now();
+      const Eigen::VectorXd simplified = solver_->solve(rhs_);
+      lap_from(tick, stage_times_.solve);
+      ++simplified_trials_;
+      if (moved_back(judged(simplified)))
+        continue;
+    }
+
     // Solve (the predictors' trial above solved the first correction already).
     Eigen::VectorXd next;
     if (chosen_correction.size() > 0) {
@@ -1466,6 +1522,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     } else {
       if (std::string why = factorize_tangent(); !why.empty())
         return why;
+      start_factorised = false;
       auto tick = std::chrono::steady_clock::now();
       next = solver_->solve(rhs_);
       lap_from(tick, stage_times_.solve);
@@ -1475,33 +1532,13 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     ++total_iterations_;
     const double next_norm = scaled_norm(next);
 
-    // The monotonicity test of the point reached along delta. Where the damping is on because
-    // the step changed the active set (not because full steps stagnate), the point is also kept
-    // where the residual fell as much as the test asks of the correction: a step that changes
-    // contacts and takes the residual from 1e4 N to 10 N (a picture frame's increment) leaves a
-    // next correction along the contacts it changed that need not be shorter, and moving back
-    // towards the predictor's residual then cost the whole attempt. Stagnating full steps
-    // (stick and slip cycling) keep the correction test alone: the residual test let them cycle
-    // (the paper's k = 1 fabric with mu = 0.2: 287 against 462 iterations).
-    double back = 1;
-    if (damping && !damping_gave_up && !(next_norm <= (1 - lambda / 4) * delta_norm) &&
-        !(!stagnating && scaled_residual <= (1 - lambda / 4) * start_residual)) {
-      const double h =
-          2 * scaled_norm(next - (1 - lambda) * delta) / (lambda * lambda * delta_norm);
-      back = std::max(std::min(0.5 * lambda, 1 / h), 0.1 * lambda);
-      // No damping makes the corrections contract: the damping gives up for this attempt and
-      // Newton goes on with full steps from the point reached (the iteration limit decides).
-      damping_gave_up = back < kMinDamping;
-    }
-    if (back < 1 && !damping_gave_up) {
-      move_along(delta, back - lambda);
-      lambda = back;
-      next_lambda = std::min(1.0, 4 * lambda);
+    // The next correction's test, where the simplified correction's did not judge the point.
+    if (damping && !simplified_test && !damping_gave_up && moved_back(judged(next)))
       continue;
-    }
 
     // Update with the new correction.
     last_active_set = active_set;
+    start_factorised = true;
     start_residual = scaled_residual;
     delta = std::move(next);
     delta_norm = next_norm;

@@ -202,6 +202,12 @@ struct SimulationOptions {
   /// that stalled with unchanged contact states went on for two iterations before it acted
   /// (docs/performance.md, "Stagnation on the attempt's fixed scale").
   bool stagnation_on_fixed_scale = true;
+  /// The line search's monotonicity test reads, at a damped point whose step kept the active set,
+  /// the simplified Newton correction -K(x_k)^-1 r(x_k + lambda delta) with the factorisation in
+  /// hand (NLEQ-ERR's test, Deuflhard 2004 sec. 3.3): a rejected point costs a solve, not a
+  /// factorisation (Simulation::attempt). false: the next Newton correction there, as at points
+  /// whose step changed the active set (a factorisation and a solve; free where it passes).
+  bool simplified_monotonicity = true;
 };
 
 /// The bound on all iterates of an attempt, in multiples of `max_iterations`, where the closing
@@ -234,6 +240,9 @@ public:
   /// The contact stage (spline and surface contacts), or null when the model has no contact.
   const ContactStage* contact() const { return contact_.get(); }
   int total_iterations() const { return total_iterations_; }
+  /// Damped points judged by their simplified correction (a solve, no factorisation), all
+  /// attempts': evaluated points besides the Newton iterations.
+  int simplified_trials() const { return simplified_trials_; }
   const std::string& linear_solver_name() const { return solver_name_; }
   const StageTimes& stage_times() const { return stage_times_; }
 
@@ -456,6 +465,7 @@ private:
   Eigen::Matrix3Xd commit_terms_;
   Eigen::VectorXd equation_weight_; ///< per free equation: 1 / shortest element (m^-1) or 1
   int total_iterations_ = 0;
+  int simplified_trials_ = 0; ///< damped points judged by their simplified correction
   StageTimes stage_times_;
   /// This process's share of the assembly over several processes (partition.hpp); none (every
   /// element, pair and node) in a one-process run. `shares_`: every process's, in rank order.

@@ -90,6 +90,25 @@ std::pair<int, WarpForceHistory> run_history(const Model& m, const SimulationOpt
   return {sim.total_iterations(), rec};
 }
 
+/// An example deck read with its `dt_max` set (the increments' longest, s).
+Model example_with_dt_max(const std::string& name, const std::string& dt_max) {
+  std::string deck = test::example_text(name);
+  EXPECT_TRUE(test::set_key(deck, "dt_max", dt_max));
+  return read_deck_string(deck, name);
+}
+
+/// The same end of a frictional test along other increments: friction makes the curve depend on
+/// the increments (the slip integrated over each), so two runs' ends agree within that
+/// dependence, closer to each other than the first is to a run in increments half as long.
+void expect_same_end_within_the_increments_dependence(const WarpForceHistory& first,
+                                                      const WarpForceHistory& other,
+                                                      const WarpForceHistory& half) {
+  ASSERT_EQ(first.time.back(), other.time.back());
+  ASSERT_EQ(first.time.back(), half.time.back());
+  EXPECT_LT(std::abs(first.force.back() - other.force.back()),
+            std::abs(first.force.back() - half.force.back()));
+}
+
 /// Linear interpolation of y(x) at x0 on increasing x.
 double at(const std::vector<double>& x, const std::vector<double>& y, double x0) {
   for (std::size_t i = 1; i < x.size(); ++i)
@@ -462,7 +481,9 @@ TEST(Biaxial, IteratesWhereCrossingsCloseCountApartFromTheIterationLimit) {
   // with the stagnation test on the relative residual (before 2026-12-07). With the fixed
   // scale's (the default) its attempts converge within the limit either way (50 increments, 155
   // iterations, none beyond 20); the 96 x 96 weave's toe still takes increments beyond it
-  // (docs/performance.md, "Stagnation on the attempt's fixed scale").
+  // (docs/performance.md, "Stagnation on the attempt's fixed scale"). So also with damped points
+  // judged by the next correction alone (before 2026-12-07; with the simplified correction's
+  // test the old stagnation test's run takes 160 iterations either way, none beyond 20).
   const Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" /
                             "biaxial-texgen-pweave.toml");
   ASSERT_EQ(m.steps.size(), 1u);
@@ -471,6 +492,7 @@ TEST(Biaxial, IteratesWhereCrossingsCloseCountApartFromTheIterationLimit) {
     SimulationOptions options;
     options.closing_iterations_apart = apart;
     options.stagnation_on_fixed_scale = false;
+    options.simplified_monotonicity = false;
     return run_history(m, options,
                        fmt::format("closing iterates {}", apart ? "counted apart" : "counted"));
   };
@@ -506,11 +528,8 @@ TEST(Biaxial, FullStepsStagnateOnTheAttemptsFixedResidualScale) {
   // while crossings close: it saw stagnation where the force residual fell, and caught full
   // steps stalled with unchanged contact states an iteration late. The paper's k = 1 fabric
   // with friction (mu = 0.2) meets both in its toe.
-  const std::string text = test::example_text("biaxial-k1-friction.toml");
-  const auto run = [&text](bool fixed, const std::string& dt_max) {
-    std::string deck = text;
-    EXPECT_TRUE(test::set_key(deck, "dt_max", dt_max));
-    const Model m = read_deck_string(deck, "biaxial-k1-friction.toml");
+  const auto run = [](bool fixed, const std::string& dt_max) {
+    const Model m = example_with_dt_max("biaxial-k1-friction.toml", dt_max);
     EXPECT_TRUE(has_friction(m));
     SimulationOptions options;
     options.stagnation_on_fixed_scale = fixed;
@@ -523,16 +542,62 @@ TEST(Biaxial, FullStepsStagnateOnTheAttemptsFixedResidualScale) {
   // Measured: 52 increments and 158 iterations against 53 and 192.
   EXPECT_LT(iterations, 0.9 * relative_iterations);
   EXPECT_LE(fixed.worst_residual, 1e-4); // the deck's force tolerance
-  // The same end of the test along other increments. Friction makes the curve depend on the
-  // increments (the slip integrated over each), so the two ends agree within that dependence:
-  // closer to each other than the first is to a run in increments half as long. Measured: 2
-  // 557.3526 and 2 557.3691 N apart by 0.0165 N; the halved increments' 2 557.3790 N, 0.026 N from
-  // the first.
+  // The same end of the test along other increments. Measured: 2 557.3526 and 2 557.3691 N apart
+  // by 0.0165 N; the halved increments' 2 557.3790 N, 0.026 N from the first.
   const auto [half_iterations, half] = run(true, "0.01");
-  ASSERT_EQ(fixed.time.back(), relative.time.back());
-  ASSERT_EQ(fixed.time.back(), half.time.back());
-  EXPECT_LT(std::abs(fixed.force.back() - relative.force.back()),
-            std::abs(fixed.force.back() - half.force.back()));
+  expect_same_end_within_the_increments_dependence(fixed, relative, half);
+}
+
+TEST(Biaxial, DampedPointsThatKeptTheActiveSetAreJudgedByTheSimplifiedCorrection) {
+  // Simulation::attempt: where a damped step kept the active set, the line search's
+  // monotonicity test reads the simplified Newton correction at the point reached (one solve
+  // with the factorisation delta came from) instead of the next Newton correction (a
+  // factorisation more): NLEQ-ERR's test (SimulationOptions::simplified_monotonicity). A
+  // rejected point then costs no Newton iteration. The paper's k = 1 fabric with friction and
+  // torsional friction damps such points in its toe, where points stick and slip.
+  const auto run = [](bool simplified, const std::string& dt_max) {
+    const Model m = example_with_dt_max("biaxial-k1-torsion.toml", dt_max);
+    EXPECT_TRUE(has_torsional_friction(m));
+    SimulationOptions options;
+    options.simplified_monotonicity = simplified;
+    Simulation sim(m, options);
+    WarpForceHistory rec(m);
+    sim.run(&rec);
+    std::printf("monotonicity test on the %s correction, dt_max = %s s: %d increments, %d Newton "
+                "iterations, %d damped points judged by one solve; warp force %.9f N\n",
+                simplified ? "simplified" : "next", dt_max.c_str(), sim.state().increment,
+                sim.total_iterations(), sim.simplified_trials(), rec.force.back());
+    return std::tuple{sim.total_iterations(), sim.simplified_trials(), rec};
+  };
+  const auto [iterations, trials, simplified] = run(true, "0.02"); // the deck's
+  const auto [next_iterations, next_trials, next] = run(false, "0.02");
+  EXPECT_EQ(next_trials, 0);
+  EXPECT_GT(trials, 0);
+  // Measured: 51 increments and 133 Newton iterations (8 damped points judged by a solve)
+  // against 52 and 165.
+  EXPECT_LT(iterations, 0.9 * next_iterations);
+  EXPECT_LE(simplified.worst_residual, 1e-4); // the deck's force tolerance
+  // The same end of the test along other increments. Measured: 2 558.4708 and 2 558.4757 N
+  // apart by 0.0049 N; the halved increments' 2 558.4810 N, 0.0103 N from the first.
+  const auto [half_iterations, half_trials, half] = run(true, "0.01");
+  expect_same_end_within_the_increments_dependence(simplified, next, half);
+
+  // Only with the factorisation delta was solved with: where the next correction's test rejected
+  // a point whose step changed the active set (a factorisation there) and the point moved back
+  // to the start's active set, the tangent in hand is the rejected point's, and a "simplified"
+  // correction from it rejected the points in between down to lambda / 10 again and again (the
+  // TexGen example: 395 iterations in 65 increments, against 155 in 50).
+  const Model tg = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" /
+                             "biaxial-texgen-pweave.toml");
+  const auto texgen = [&tg](bool simplified) {
+    SimulationOptions options;
+    options.simplified_monotonicity = simplified;
+    return run_history(tg, options,
+                       fmt::format("TexGen example, monotonicity test on the {} correction",
+                                   simplified ? "simplified" : "next"))
+        .first;
+  };
+  EXPECT_LE(texgen(true), texgen(false)); // measured: 155 and 155
 }
 
 TEST(Biaxial, TensionTestsPredictWithTheLastIncrementWhereItLeavesTheShorterCorrection) {

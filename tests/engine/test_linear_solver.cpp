@@ -113,6 +113,42 @@ TEST(LinearSolver, LDLTGmresKeepsSolvingAcrossIterationsAndAttempts) {
   }
 }
 
+TEST(LinearSolver, EverySolverSolvesWithTheTangentItFactorised) {
+  // Simulation::attempt assembles the next iterate's tangent into the same matrix and then
+  // solves with the factorisation in hand: the simplified Newton corrections, -K(x_k)^-1
+  // r(x_k+1), of its termination and monotonicity tests. Each solver's solve must read the
+  // tangent it factorised, not the matrix's later values (ldlt-gmres's GMRES read them: its
+  // "simplified" corrections were the next Newton corrections).
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<LinearSolverKind> kinds{LinearSolverKind::LU, LinearSolverKind::LDLTGmres};
+  if (mumps_available())
+    kinds.push_back(LinearSolverKind::MUMPS);
+  for (const LinearSolverKind kind : kinds) {
+    const SparseMatrix factorised = banded(200, 1e-3, rng);
+    SparseMatrix A = factorised;
+    Eigen::VectorXd b(200);
+    for (int i = 0; i < 200; ++i)
+      b(i) = u(rng);
+    auto solver = make_linear_solver(kind, /*symmetric_tangent=*/false);
+    solver->start_attempt();
+    solver->analyze(A);
+    solver->factorize(A);
+    A.coeffs() *= 2; // the next iterate's tangent, assembled into the same pattern
+    const Eigen::VectorXd x = solver->solve(b);
+    EXPECT_LT(relative_residual(factorised, x, b), 1e-10) << solver->name();
+  }
+  // The symmetric LDL^T (symmetric tangents alone).
+  const SparseMatrix factorised = banded(200, 0.0, rng);
+  SparseMatrix A = factorised;
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(200);
+  auto ldlt = make_linear_solver(LinearSolverKind::LDLTSymmetric);
+  ldlt->analyze(A);
+  ldlt->factorize(A);
+  A.coeffs() *= 2;
+  EXPECT_LT(relative_residual(factorised, ldlt->solve(b), b), 1e-10);
+}
+
 /// An indefinite symmetric n x n matrix: the banded S with every fifth diagonal entry negative
 /// (a tangent under compression or with a soft mode has negative pivots).
 SparseMatrix indefinite(int n, std::mt19937& rng) {
