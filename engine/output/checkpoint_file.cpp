@@ -529,6 +529,7 @@ void write_checkpoint(const std::filesystem::path& dir, const SimulationCheckpoi
     h5::write_double_attribute(root, "damping_work", c.damping_work);
     h5::write_double_attribute(root, "energy_reference", c.energy_reference);
     h5::write_int_attribute(root, "total_iterations", c.total_iterations);
+    h5::write_int_attribute(root, "simplified_trials", c.simplified_trials);
     write_status(root, "explicit_", c.explicit_status);
     if (!c.partition_cuts.empty())
       write_table(root, "partition_cuts", c.partition_cuts, 1);
@@ -636,6 +637,9 @@ StoredCheckpoint read_checkpoint(const std::filesystem::path& dir) {
   c.damping_work = h5::read_double_attribute(root, "damping_work");
   c.energy_reference = h5::read_double_attribute(root, "energy_reference");
   c.total_iterations = h5::read_int_attribute(root, "total_iterations");
+  // Written since 2026-12-07 (absent: none counted).
+  if (h5::attribute_exists(root, "simplified_trials"))
+    c.simplified_trials = h5::read_int_attribute(root, "simplified_trials");
   c.explicit_status = read_status(root, "explicit_");
   // Written over several processes since the partition is balanced (absent: none).
   if (h5::exists(root, "partition_cuts"))

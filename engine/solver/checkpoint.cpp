@@ -36,6 +36,7 @@ SimulationCheckpoint Simulation::checkpoint() const {
   c.damping_work = damping_work_;
   c.energy_reference = energy_reference_;
   c.total_iterations = total_iterations_;
+  c.simplified_trials = simplified_trials_;
   c.secant_motion = secant_motion_;
   c.secant_rotation = secant_rotation_;
   c.secant_dt = secant_dt_;
@@ -112,6 +113,7 @@ Simulation::Simulation(const Model& model, SimulationOptions options,
   damping_work_ = from.damping_work;
   energy_reference_ = from.energy_reference;
   total_iterations_ = from.total_iterations;
+  simplified_trials_ = from.simplified_trials;
   if (from.secant_step >= 0 &&
       (from.secant_motion.cols() != n || from.secant_rotation.cols() != n || !(from.secant_dt > 0)))
     throw std::invalid_argument(fmt::format("checkpoint: the secant predictor's motion and "

@@ -49,6 +49,9 @@ struct SimulationCheckpoint {
   double external_work = 0, prescribed_work = 0, damping_work = 0; ///< J
   double energy_reference = 0;                                     ///< J
   int total_iterations = 0;
+  /// Damped points judged by their simplified correction (Simulation::simplified_trials); 0
+  /// where read from a checkpoint written before they were counted.
+  int simplified_trials = 0;
   /// The secant predictor's last increment (SolutionStep::secant_predictor): every node's
   /// motion (3 x n_nodes, m) and rotation (3 x n_nodes, rotation vectors, rad; zero where read
   /// from a checkpoint written before the secant carried rotations), the increment's size (s)

@@ -57,6 +57,9 @@ Model example(const std::string& name,
 struct Increment {
   double time = 0, dt = 0;
   int iterations = 0;
+  /// The run's counts so far (the checkpoint carries them): Newton iterations, and damped points
+  /// judged by one solve.
+  int total_iterations = 0, simplified_trials = 0;
   Eigen::Matrix3Xd x, rotation, v;
   Eigen::Matrix<double, 6, Eigen::Dynamic> reactions;
   double kinetic = 0, contact_energy = 0, external_work = 0, balance_error = 0;
@@ -73,6 +76,8 @@ struct Recorder : SimulationObserver {
     i.time = r.time;
     i.dt = r.dt;
     i.iterations = r.iterations;
+    i.total_iterations = s.total_iterations();
+    i.simplified_trials = s.simplified_trials();
     i.x = s.state().x_n;
     i.rotation = s.state().rotation_n;
     i.v = s.state().v_n;
@@ -110,6 +115,8 @@ void expect_same_continuation(const Recorder& straight, std::size_t k, const Rec
     EXPECT_EQ(a.time, b.time);
     EXPECT_EQ(a.dt, b.dt);
     EXPECT_EQ(a.iterations, b.iterations);
+    EXPECT_EQ(a.total_iterations, b.total_iterations);
+    EXPECT_EQ(a.simplified_trials, b.simplified_trials);
     EXPECT_TRUE(same_bits(a.x, b.x));
     EXPECT_TRUE(same_bits(a.rotation, b.rotation));
     EXPECT_TRUE(same_bits(a.v, b.v));
