@@ -1469,15 +1469,15 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     // (the paper's k = 1 fabric with mu = 0.2: 287 against 462 iterations). judged: the point
     // x + lambda delta judged by a correction from it, 1 where it is kept, else the lambda to
     // move back to.
-    const auto judged = [&](const Eigen::VectorXd& correction) {
-      constexpr double none = std::numeric_limits<double>::infinity();
-      const bool finite = correction.allFinite();
-      if ((finite && scaled_norm(correction) <= (1 - lambda / 4) * delta_norm) ||
+    // correction_norm: its scaled norm (infinite where it is not finite).
+    const auto judged = [&](const Eigen::VectorXd& correction, double correction_norm) {
+      if (correction_norm <= (1 - lambda / 4) * delta_norm ||
           (!stagnating && scaled_residual <= (1 - lambda / 4) * start_residual))
         return 1.0;
-      const double h = finite ? 2 * scaled_norm(correction - (1 - lambda) * delta) /
-                                    (lambda * lambda * delta_norm)
-                              : none;
+      const double h =
+          std::isfinite(correction_norm)
+              ? 2 * scaled_norm(correction - (1 - lambda) * delta) / (lambda * lambda * delta_norm)
+              : std::numeric_limits<double>::infinity();
       return std::max(std::min(0.5 * lambda, 1 / h), 0.1 * lambda);
     };
 
@@ -1510,7 +1510,10 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
       const Eigen::VectorXd simplified = solver_->solve(rhs_);
       lap_from(tick, stage_times_.solve);
       ++simplified_trials_;
-      if (moved_back(judged(simplified)))
+      const double simplified_norm = simplified.allFinite()
+                                         ? scaled_norm(simplified)
+                                         : std::numeric_limits<double>::infinity();
+      if (moved_back(judged(simplified, simplified_norm)))
         continue;
     }
 
@@ -1533,7 +1536,7 @@ std::string Simulation::attempt(const SolutionStep& step, double t_new, double d
     const double next_norm = scaled_norm(next);
 
     // The next correction's test, where the simplified correction's did not judge the point.
-    if (damping && !simplified_test && !damping_gave_up && moved_back(judged(next)))
+    if (damping && !simplified_test && !damping_gave_up && moved_back(judged(next, next_norm)))
       continue;
 
     // Update with the new correction.

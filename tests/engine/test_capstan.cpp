@@ -458,8 +458,9 @@ TEST(Capstan, IncrementsStartFromTheConvergedStatesTangent) {
   // tangent is the linear response of the taut yarn, sliding over its pins, to that motion
   // (simulation.cpp, Simulation::attempt); from the predictor's tangent it is a Newton step
   // from a yarn whose end element carries the whole pull. With the default (mixed integration
-  // point) Newton, examples/capstan.toml measured 49 increments and 292 iterations against 153
-  // and 818 with the option off.
+  // point) Newton, examples/capstan.toml measured 49 increments and 260 iterations against 150
+  // and 707 with the option off (292 against 153 and 818 before damped points were judged by
+  // their simplified correction).
   const Model m =
       read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "capstan.toml");
   const auto run = [&](bool from_converged) {
