@@ -5,6 +5,7 @@
 #include <fcl/narrowphase/collision_object.h>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
@@ -202,6 +203,17 @@ int segment_id(const fcl::CollisionObjectd* o) {
   return static_cast<int>(reinterpret_cast<std::intptr_t>(o->getUserData()));
 }
 
+/// Fits an object to an inflated box. The box keeps the identity rotation, so its world box is
+/// exactly centre -+ half (a rotated box would get a cube around its bounding sphere). FCL does
+/// not refresh an object's box on a move: computeLocalAABB() after the resize and computeAABB()
+/// after the translation are needed, or every pair overlaps.
+void place(fcl::Boxd& shape, fcl::CollisionObjectd& object, const CentreHalf& ch) {
+  shape.side = 2.0 * ch.half; // FCL halves it back exactly
+  shape.computeLocalAABB();
+  object.setTranslation(ch.centre);
+  object.computeAABB();
+}
+
 /// FCL calls this for every pair of objects whose world boxes overlap; returns false to go on.
 bool collect_pair(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* data) {
   auto& state = *static_cast<CollideState*>(data);
@@ -234,23 +246,40 @@ struct CandidateSearch::Impl {
   Impl(std::vector<SegmentInfo> segments, std::span<const std::pair<int, int>> group_pairs,
        const CandidateSearchOptions& opts)
       : filter(std::move(segments), group_pairs, opts), options(opts) {
+    contact_boxes.resize(filter.size());
+    build_trees();
+  }
+
+  bool in_share(int segment) const { return own.empty() || own[segment] != 0; }
+
+  /// The FCL objects of the segments in the share (every segment without one), one tree per
+  /// contact group that may touch some group: pairs between groups that may not touch (warp
+  /// with warp in a plain weave, say) are then never visited. The trees are filled at the next
+  /// search.
+  void build_trees() {
     const int n = filter.size();
-    shapes.reserve(n);
-    objects.reserve(n);
-    for (int i = 0; i < n; ++i) {
-      shapes.push_back(std::make_shared<fcl::Boxd>(0.0, 0.0, 0.0));
-      objects.push_back(std::make_unique<fcl::CollisionObjectd>(shapes.back()));
-      objects.back()->setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(i)));
-    }
-    contact_boxes.resize(n);
-    // One tree per contact group that may touch some group: pairs between groups that may not
-    // touch (warp with warp in a plain weave, say) are then never visited.
     const int g = filter.num_groups();
-    members.resize(g);
+    shapes.assign(n, nullptr);
+    objects.clear();
+    objects.resize(n);
+    scope.clear();
+    others.clear();
     for (int i = 0; i < n; ++i) {
-      members[filter.group(i)].push_back(objects[i].get());
+      if (!in_share(i)) {
+        others.push_back(i);
+        continue;
+      }
+      scope.push_back(i);
+      shapes[i] = std::make_shared<fcl::Boxd>(0.0, 0.0, 0.0);
+      objects[i] = std::make_unique<fcl::CollisionObjectd>(shapes[i]);
+      objects[i]->setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(i)));
     }
+    members.assign(g, {});
+    for (const int i : scope)
+      members[filter.group(i)].push_back(objects[i].get());
+    trees.clear();
     trees.resize(g);
+    tree_pairs.clear();
     for (int a = 0; a < g; ++a) {
       for (int b = a; b < g; ++b) {
         if (filter.groups_touch(a, b) && !members[a].empty() && !members[b].empty()) {
@@ -263,8 +292,21 @@ struct CandidateSearch::Impl {
         }
       }
     }
+    // A segment outside the share is queried against the trees of the groups its own touches.
+    if (!own.empty()) {
+      for (int a = 0; a < g; ++a) {
+        if (members[a].empty() || trees[a]) {
+          continue;
+        }
+        for (int b = 0; b < g; ++b) {
+          if (filter.groups_touch(a, b)) {
+            trees[a] = std::make_unique<fcl::DynamicAABBTreeCollisionManagerd>();
+            break;
+          }
+        }
+      }
+    }
   }
-
   /// Checks the inputs and measures the motion since the last search (0 before the first).
   Scan scan(std::span<const Eigen::AlignedBox3d> boxes, std::span<const double> radius) const {
     const bool measure = stats.searches > 0;
@@ -300,22 +342,19 @@ struct CandidateSearch::Impl {
   void search(std::span<const Eigen::AlignedBox3d> boxes, std::span<const double> radius) {
     const auto start = std::chrono::steady_clock::now();
     searched.assign(boxes.begin(), boxes.end());
+    searched_radius.assign(radius.begin(), radius.end());
     const int n = filter.size();
     const double margin = options.margin;
-    // Refit every object to its inflated box. The box keeps the identity rotation, so its world
-    // box is exactly centre -+ half (a rotated box would get a cube around its bounding sphere).
-    // FCL does not refresh an object's box on a move: computeLocalAABB() after the resize and
-    // computeAABB() after the translation are needed, or every pair overlaps.
+    // Refit every object (the share's) to its inflated box (place).
     tbb::parallel_for(
         tbb::blocked_range<int>(0, n, grain_size), [&](const tbb::blocked_range<int>& range) {
           for (int i = range.begin(); i != range.end(); ++i) {
-            const CentreHalf ch = centre_half(boxes[i], radius[i], margin);
-            shapes[i]->side = 2.0 * ch.half; // FCL halves it back exactly
-            shapes[i]->computeLocalAABB();
-            objects[i]->setTranslation(ch.centre);
-            objects[i]->computeAABB();
             contact_boxes[i] = Eigen::AlignedBox3d(boxes[i].min().array() - radius[i],
                                                    boxes[i].max().array() + radius[i]);
+            if (!objects[i]) {
+              continue;
+            }
+            place(*shapes[i], *objects[i], centre_half(boxes[i], radius[i], margin));
           }
         });
     for (std::size_t g = 0; g < trees.size(); ++g) {
@@ -338,10 +377,44 @@ struct CandidateSearch::Impl {
         trees[a]->collide(trees[b].get(), &state, &collect_pair);
       }
     }
+    // The segments outside the share, each queried against the share's trees of the groups it
+    // may touch (a tree is only read by a query, so they run in parallel, each thread with its
+    // own box and list).
+    std::int64_t reported = state.reported;
+    if (!own.empty() && !others.empty()) {
+      struct Query {
+        std::shared_ptr<fcl::Boxd> shape = std::make_shared<fcl::Boxd>(0.0, 0.0, 0.0);
+        fcl::CollisionObjectd object{shape};
+        std::vector<CandidatePair> pairs;
+        std::int64_t reported = 0;
+      };
+      tbb::enumerable_thread_specific<Query> queries;
+      tbb::parallel_for(
+          tbb::blocked_range<std::size_t>(0, others.size(), 256),
+          [&](const tbb::blocked_range<std::size_t>& range) {
+            Query& q = queries.local();
+            CollideState local{&filter, &q.pairs};
+            for (std::size_t k = range.begin(); k != range.end(); ++k) {
+              const int j = others[k];
+              q.object.setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(j)));
+              place(*q.shape, q.object, centre_half(boxes[j], radius[j], margin));
+              for (int a = 0; a < filter.num_groups(); ++a) {
+                if (trees[a] && !members[a].empty() && filter.groups_touch(a, filter.group(j))) {
+                  trees[a]->collide(&q.object, &local, &collect_pair);
+                }
+              }
+            }
+            q.reported += local.reported;
+          });
+      for (Query& q : queries) {
+        pairs.insert(pairs.end(), q.pairs.begin(), q.pairs.end());
+        reported += q.reported;
+      }
+    }
     // The traversal order depends on the tree's history: sort so that nothing downstream does.
     sort_unique(pairs, n, scratch, offsets);
 
-    stats.reported_pairs = state.reported;
+    stats.reported_pairs = reported;
     stats.last_search_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ++stats.searches;
@@ -349,16 +422,22 @@ struct CandidateSearch::Impl {
 
   PairFilter filter;
   CandidateSearchOptions options;
-  std::vector<std::shared_ptr<fcl::Boxd>> shapes; ///< one per segment, shared with its object
+  /// Per segment in the share (null outside it), its box, shared with its object.
+  std::vector<std::shared_ptr<fcl::Boxd>> shapes;
   std::vector<std::unique_ptr<fcl::CollisionObjectd>> objects; ///< user data: segment id
   std::vector<std::vector<fcl::CollisionObjectd*>> members;    ///< per group, its objects
   /// Per group, its tree, or null when the group may touch no group.
   std::vector<std::unique_ptr<fcl::DynamicAABBTreeCollisionManagerd>> trees;
   std::vector<std::pair<int, int>> tree_pairs; ///< (a, b), a <= b, whose trees are collided
+  /// Per segment, whether it is in this process's share (set_share); empty: every segment.
+  std::vector<char> own;
+  std::vector<int> scope;  ///< the segments in the share, which have objects in the trees
+  std::vector<int> others; ///< the segments outside it, queried against the trees
   /// Per segment, its box inflated by the radius only at the last search, metres.
   std::vector<Eigen::AlignedBox3d> contact_boxes;
   std::vector<CandidatePair> pairs;          ///< the candidates
   std::vector<Eigen::AlignedBox3d> searched; ///< tight boxes of the last search, metres
+  std::vector<double> searched_radius;       ///< radii of the last search, metres
   std::vector<CandidatePair> scratch;
   std::vector<int> offsets;
   CandidateSearchStatistics stats;
@@ -391,6 +470,30 @@ bool CandidateSearch::update(std::span<const Eigen::AlignedBox3d> tight_boxes,
   }
   m.search(tight_boxes, radius);
   return true;
+}
+
+void CandidateSearch::set_share(std::vector<char> own) {
+  Impl& m = *impl_;
+  if (!own.empty() && own.size() != static_cast<std::size_t>(m.filter.size())) {
+    throw std::invalid_argument(
+        "CandidateSearch::set_share: expected " + std::to_string(m.filter.size()) +
+        " flags (one per segment) or none, found " + std::to_string(own.size()));
+  }
+  if (!own.empty() && std::all_of(own.begin(), own.end(), [](char c) { return c != 0; })) {
+    own.clear(); // every segment: the whole search
+  }
+  if (own == m.own) {
+    return;
+  }
+  m.own = std::move(own);
+  m.build_trees();
+  // The last search again, on its own boxes: the candidates are the whole search's that the
+  // share holds, and the motion test keeps its reference (searched where a whole search would).
+  if (m.stats.searches > 0) {
+    const std::vector<Eigen::AlignedBox3d> boxes = m.searched;
+    const std::vector<double> radius = m.searched_radius;
+    m.search(boxes, radius);
+  }
 }
 
 const std::vector<CandidatePair>& CandidateSearch::candidates() const {

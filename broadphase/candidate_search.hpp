@@ -106,8 +106,20 @@ public:
   bool update(std::span<const Eigen::AlignedBox3d> tight_boxes, std::span<const double> radius,
               bool force = false);
 
+  /// A process's share of a run over several (MPI, engine/model/partition.hpp): one flag per
+  /// segment, those of the segments whose pairs the process may own; empty (the default), or
+  /// every flag set: every segment. The candidates are then the pairs with at least one segment
+  /// in the share, found by that segment's process (a pair across two shares by both): only the
+  /// share's segments have objects in FCL's trees, and each segment outside it is queried
+  /// against them. The motion test still sees every segment, so that every process searches
+  /// at the same updates as one process would. Where a search was made, it is made again on
+  /// its own boxes: the candidates are that search's that the share holds. Throws
+  /// std::invalid_argument for a size other than num_segments() or 0.
+  void set_share(std::vector<char> own);
+
   /// The candidates of the last search: canonical (first < second), sorted, without duplicates;
   /// independent of thread count and of the tree's traversal order. Empty before update().
+  /// Within a share (set_share), those with at least one segment in it.
   const std::vector<CandidatePair>& candidates() const;
 
   /// The tight boxes of the last search, metres (empty before it): searched again (update with

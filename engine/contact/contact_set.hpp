@@ -60,7 +60,11 @@ struct ContactPoint {
 
 /// Figures of the last evaluation, over all its pairs.
 struct ContactSummary {
-  int candidates = 0;
+  int candidates = 0; ///< the pairs projected (over several processes, each process's own)
+  /// The pairs the broad phase listed: over several processes, each process's share's (its own
+  /// and those across its share's edge, which the other side owns), so that summed over them a
+  /// pair across two shares counts twice; candidates on one process.
+  int searched = 0;
   int active = 0;
   /// The active pairs counted as contact points before rounding to `active`: a spline pair 1, a
   /// surface pair its share (a contact near a node, held by two pairs, counts once in all).
@@ -459,7 +463,8 @@ public:
   virtual bool reads_triads() const { return false; }
   /// A process's share of a run over several (partition.hpp): from the next update_candidates
   /// on (also after a restore), the work list holds only the pairs `owned` holds
-  /// (pair_owner_node; none: every pair). The candidate search stays whole.
+  /// (pair_owner_node; none: every pair), and the candidate search those with a segment whose
+  /// side of pair_owner_node is this process's node (broadphase::CandidateSearch::set_share).
   void set_owned(const std::optional<NodePartition>& owned) {
     owned_ = owned;
     rebuild_work_ = true;
@@ -470,9 +475,9 @@ public:
   virtual void clear_dissipation() = 0;
   /// Changes whenever a broad-phase search changed the candidate list.
   virtual int candidates_version() const = 0;
-  /// Adds `weight` to per_node[k] for every candidate pair of the whole search (not only this
-  /// process's share), k the node that owns the pair over processes (pair_owner_node): the
-  /// contact's work per node, for the partition's balance (Simulation::rebalance).
+  /// Adds `weight` to per_node[k] for every candidate pair this process owns (every pair on one
+  /// process), k the node that owns it (pair_owner_node): the contact's work per node, for the
+  /// partition's balance (Simulation::rebalance, which sums the processes' loads).
   virtual void add_candidate_loads(std::vector<double>& per_node, double weight) const = 0;
   /// Node groups of the pairs of the last projection that are active or within reach (a
   /// converged projection with a gap below the definition's broad-phase margin), for the

@@ -128,6 +128,7 @@ ContactSummary combine_summaries(const std::vector<ContactSummary>& parts) {
     out.total_force += s.total_force;
     out.stick += s.stick;
     out.slip += s.slip;
+    out.searched += s.searched;
     out.tangential_force += s.tangential_force;
     out.twist_stick += s.twist_stick;
     out.twist_slip += s.twist_slip;

@@ -195,12 +195,26 @@ bool SplineContactSet::owns(const Definition& d, const broadphase::CandidatePair
 void SplineContactSet::add_candidate_loads(std::vector<double>& per_node, double weight) const {
   for (const auto& d : definitions_)
     for (const broadphase::CandidatePair& p : d->search->candidates())
-      per_node[static_cast<std::size_t>(owner_node(*d, p))] += weight;
+      if (owns(*d, p))
+        per_node[static_cast<std::size_t>(owner_node(*d, p))] += weight;
+}
+
+std::vector<char> SplineContactSet::share_of(const Definition& d) const {
+  if (!owned_)
+    return {};
+  // The node a pair's owner is taken from on this segment's side (owner_node).
+  std::vector<char> own(d.spline.size());
+  for (std::size_t s = 0; s < own.size(); ++s)
+    own[s] = owned_->owns(model_.splines[d.spline[s]].nodes[d.segment[s]]) ? 1 : 0;
+  return own;
 }
 
 bool SplineContactSet::update_candidates(const State& state) {
   const Eigen::Matrix3Xd& x = state.x;
   bool changed = (work_.empty() && candidates_version_ == 0) || rebuild_work_;
+  if (rebuild_work_) // a new share: each search holds the pairs it may own (set_owned)
+    for (auto& d : definitions_)
+      d->search->set_share(share_of(*d));
   rebuild_work_ = false;
   for (std::size_t k = 0; k < definitions_.size(); ++k) {
     Definition& d = *definitions_[k];
@@ -896,7 +910,7 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
                     snapshot.search_boxes.size(), definitions_.size()));
   // Searching the saved boxes again makes them the reference of the motion test and gives the
   // candidates of the saved search (sorted, independent of the tree).
-  std::vector<Work> work;
+  std::vector<Key> searched;
   for (std::size_t k = 0; k < definitions_.size(); ++k) {
     Definition& d = *definitions_[k];
     if (snapshot.search_boxes[k].size() != d.boxes.size())
@@ -906,17 +920,40 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
     d.searched = snapshot.search_boxes[k];
     d.search->update(d.searched, d.radius, true);
     for (const broadphase::CandidatePair& p : d.search->candidates())
-      work.push_back({static_cast<int>(k), p, {}, {}, {}});
+      searched.push_back({static_cast<int>(k), p.first, p.second});
   }
-  if (work.size() != snapshot.pairs.size())
+  // One process: the saved search's candidates are the snapshot's pairs. A process's share
+  // (set_owned: its search holds the pairs with a segment in it) finds each of its candidates
+  // among the pairs of every process. Every saved pair is restored (the run's figures, points
+  // and snapshots as they stand: Simulation::share_contact_pairs); the next search's work list
+  // keeps this process's own.
+  if (!owned_ && searched.size() != snapshot.pairs.size())
     throw std::invalid_argument(
         fmt::format("contact restart: the saved boxes give {} candidate pairs, the snapshot has {}",
-                    work.size(), snapshot.pairs.size()));
-  for (std::size_t w = 0; w < work.size(); ++w) {
-    const Snapshot::Pair& p = snapshot.pairs[w];
-    if (p.key != work[w].key())
+                    searched.size(), snapshot.pairs.size()));
+  for (std::size_t w = 0; w < snapshot.pairs.size(); ++w) {
+    const Key& key = snapshot.pairs[w].key;
+    const int k = key[0];
+    if (k < 0 || k >= static_cast<int>(definitions_.size()) || key[1] < 0 || key[1] >= key[2] ||
+        key[2] >= static_cast<int>(definitions_[k]->spline.size()) ||
+        (w > 0 && !(snapshot.pairs[w - 1].key < key)))
       throw std::invalid_argument(fmt::format(
-          "contact restart: candidate {} of the saved search differs from the snapshot's", w));
+          "contact restart: saved pair {} ({}, {}, {}) does not fit the model or is out of order",
+          w, key[0], key[1], key[2]));
+  }
+  for (std::size_t c = 0, saved = 0; c < searched.size(); ++c) {
+    while (saved < snapshot.pairs.size() && snapshot.pairs[saved].key < searched[c])
+      ++saved;
+    if (saved >= snapshot.pairs.size() || snapshot.pairs[saved].key != searched[c] ||
+        (!owned_ && saved != c))
+      throw std::invalid_argument(fmt::format(
+          "contact restart: candidate {} of the saved search differs from the snapshot's", c));
+  }
+  std::vector<Work> work;
+  work.reserve(snapshot.pairs.size());
+  for (std::size_t w = 0; w < snapshot.pairs.size(); ++w) {
+    const Snapshot::Pair& p = snapshot.pairs[w];
+    work.push_back({p.key[0], {p.key[1], p.key[2]}, {}, {}, {}});
     contact::SplineContactState& r = work[w].result;
     r.status = p.status;
     r.degenerate = p.degenerate;
@@ -980,6 +1017,9 @@ bool SplineContactSet::past_curve_end(const Definition& d, int id, double xi) co
 void SplineContactSet::summarise() {
   summary_ = {};
   summary_.candidates = static_cast<int>(work_.size());
+  summary_.searched = 0;
+  for (const auto& d : definitions_)
+    summary_.searched += static_cast<int>(d->search->candidates().size());
   // In parallel (scan_work); the listed items (active, out of range where a point was, with
   // friction) are then summed here in their order.
   // Active at the last converged increment; out of range there with the surfaces overlapping.

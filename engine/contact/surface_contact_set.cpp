@@ -153,11 +153,28 @@ bool SurfaceContactSet::owns(const Definition& d, const broadphase::CandidatePai
 void SurfaceContactSet::add_candidate_loads(std::vector<double>& per_node, double weight) const {
   for (const auto& d : definitions_)
     for (const broadphase::CandidatePair& p : d->search->candidates())
-      per_node[static_cast<std::size_t>(owner_node(*d, p))] += weight;
+      if (owns(*d, p))
+        per_node[static_cast<std::size_t>(owner_node(*d, p))] += weight;
+}
+
+std::vector<char> SurfaceContactSet::share_of(const Definition& d) const {
+  if (!owned_)
+    return {};
+  // The node a pair's owner is taken from on this segment's side (owner_node).
+  std::vector<char> own(d.surface.size());
+  for (std::size_t s = 0; s < own.size(); ++s)
+    own[s] = owned_->owns(
+                 model_.elements[model_.surfaces[d.surface[s]].elements[d.position[s]]].nodes[0])
+                 ? 1
+                 : 0;
+  return own;
 }
 
 bool SurfaceContactSet::update_candidates(const State& state) {
   bool changed = (work_.empty() && candidates_version_ == 0) || rebuild_work_;
+  if (rebuild_work_) // a new share: each search holds the pairs it may own (set_owned)
+    for (auto& d : definitions_)
+      d->search->set_share(share_of(*d));
   rebuild_work_ = false;
   // The boxes hold the sections as they are oriented, and the end windows of the options
   // project() uses.
@@ -372,6 +389,9 @@ std::string SurfaceContactSet::project(const State& state, bool want_tangent,
 void SurfaceContactSet::summarise() {
   summary_ = {};
   summary_.candidates = static_cast<int>(work_.size());
+  summary_.searched = 0;
+  for (const auto& d : definitions_)
+    summary_.searched += static_cast<int>(d->search->candidates().size());
   // In parallel (scan_work); the active items are then summed here in their order.
   scan_work(work_.size(), scan_blocks_, scan_, [&](std::size_t w) {
     const Work& item = work_[w];
@@ -719,7 +739,7 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
                     snapshot.search_boxes.size(), definitions_.size()));
   // Searching the saved boxes again makes them the reference of the motion test and gives the
   // candidates of the saved search (sorted, independent of the tree).
-  std::vector<Work> work;
+  std::vector<Key> searched;
   for (std::size_t k = 0; k < definitions_.size(); ++k) {
     Definition& d = *definitions_[k];
     if (snapshot.search_boxes[k].size() != d.boxes.size())
@@ -728,19 +748,41 @@ void SurfaceContactSet::restore(const Snapshot& snapshot) {
           model_.surface_contacts[k].name, d.boxes.size(), snapshot.search_boxes[k].size()));
     d.search->update(snapshot.search_boxes[k], d.radius, true);
     for (const broadphase::CandidatePair& p : d.search->candidates())
-      work.push_back({static_cast<int>(k), p, {}, {}, {}});
+      searched.push_back({static_cast<int>(k), p.first, p.second});
   }
-  if (work.size() != snapshot.pairs.size())
+  // One process: the saved search's candidates are the snapshot's pairs. A process's share
+  // (set_owned: its search holds the pairs with a segment in it) finds each of its candidates
+  // among the pairs of every process. Every saved pair is restored (the run's figures, points
+  // and snapshots as they stand: Simulation::share_contact_pairs); the next search's work list
+  // keeps this process's own.
+  if (!owned_ && searched.size() != snapshot.pairs.size())
     throw std::invalid_argument(fmt::format(
         "surface contact restart: the saved boxes give {} candidate pairs, the snapshot has {}",
-        work.size(), snapshot.pairs.size()));
-  for (std::size_t w = 0; w < work.size(); ++w) {
+        searched.size(), snapshot.pairs.size()));
+  for (std::size_t w = 0; w < snapshot.pairs.size(); ++w) {
+    const Key& key = snapshot.pairs[w].key;
+    const int k = key[0];
+    if (k < 0 || k >= static_cast<int>(definitions_.size()) || key[1] < 0 || key[1] >= key[2] ||
+        key[2] >= static_cast<int>(definitions_[k]->surface.size()) ||
+        (w > 0 && !(snapshot.pairs[w - 1].key < key)))
+      throw std::invalid_argument(fmt::format("surface contact restart: saved pair {} ({}, {}, {}) "
+                                              "does not fit the model or is out of order",
+                                              w, key[0], key[1], key[2]));
+  }
+  for (std::size_t c = 0, saved = 0; c < searched.size(); ++c) {
+    while (saved < snapshot.pairs.size() && snapshot.pairs[saved].key < searched[c])
+      ++saved;
+    if (saved >= snapshot.pairs.size() || snapshot.pairs[saved].key != searched[c] ||
+        (!owned_ && saved != c))
+      throw std::invalid_argument(fmt::format(
+          "surface contact restart: candidate {} of the saved search differs from the snapshot's",
+          c));
+  }
+  std::vector<Work> work;
+  work.reserve(snapshot.pairs.size());
+  for (std::size_t w = 0; w < snapshot.pairs.size(); ++w) {
     const Snapshot::Pair& p = snapshot.pairs[w];
-    if (p.key != Key{work[w].definition, work[w].pair.first, work[w].pair.second})
-      throw std::invalid_argument(
-          fmt::format("surface contact restart: candidate {} of the saved search differs from the "
-                      "snapshot's",
-                      w));
+    work.push_back({p.key[0], {p.key[1], p.key[2]}, {}, {}, {}});
     contact::SurfaceContactState& r = work[w].result;
     r.status = p.status;
     r.degeneration = p.degeneration;

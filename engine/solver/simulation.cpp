@@ -1027,6 +1027,9 @@ std::string Simulation::rebalance() {
   const int n = state_.n_nodes();
   std::vector<double> load(static_cast<std::size_t>(n), 0.0);
   contact_->add_candidate_loads(load, kCandidateLoad);
+  // Each process's search holds its own pairs (and those across its share's edge, which it
+  // does not own): their loads summed are every pair's, the same on every process.
+  distributed::sum(load.data(), load.size());
   std::vector<NodePartition> shares = partition_all(model_, distributed::size(), load);
   if (shares == shares_)
     return {};

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -333,6 +334,73 @@ TEST(Determinism, RepeatedSearchesAfterMotionGiveTheSameList) {
   ASSERT_TRUE(search.update(l.boxes, l.radius));
   EXPECT_EQ(search.candidates(),
             brute_force_candidates(l.segments, one_group, o, l.boxes, l.radius));
+}
+
+/// The pairs of `all` with at least one segment in `own`.
+std::vector<CandidatePair> with_a_segment_in(const std::vector<CandidatePair>& all,
+                                             const std::vector<char>& own) {
+  std::vector<CandidatePair> out;
+  std::copy_if(all.begin(), all.end(), std::back_inserter(out),
+               [&](const CandidatePair& p) { return own[p.first] || own[p.second]; });
+  return out;
+}
+
+TEST(Share, EachProcessFindsThePairsWithASegmentInItsShare) {
+  // Three processes' shares of whole curves (contiguous curve ranges, as partition.hpp cuts),
+  // over three groups of which two touch each other and one itself, self-contact on.
+  const Layout l = random_layout(6000, 20, 3, 77u);
+  const std::vector<std::pair<int, int>> groups = {{0, 1}, {2, 2}, {1, 2}};
+  CandidateSearchOptions o{.margin = 0.1, .same_curve_skip = 2, .self_contact = true};
+  const auto whole = brute_force_candidates(l.segments, groups, o, l.boxes, l.radius);
+  const int curves = l.segments.back().curve + 1;
+  std::set<CandidatePair> found;
+  std::size_t across = 0; // pairs whose segments lie in two shares
+  for (int rank = 0; rank < 3; ++rank) {
+    std::vector<char> own(l.segments.size());
+    for (std::size_t i = 0; i < own.size(); ++i)
+      own[i] = l.segments[i].curve * 3 / curves == rank;
+    CandidateSearch search(l.segments, groups, o);
+    search.set_share(own);
+    ASSERT_TRUE(search.update(l.boxes, l.radius));
+    const auto expected = with_a_segment_in(whole, own);
+    ASSERT_FALSE(expected.empty());
+    EXPECT_EQ(search.candidates(), expected) << "rank " << rank;
+    for (const CandidatePair& p : search.candidates()) {
+      found.insert(p);
+      across += own[p.first] != own[p.second];
+    }
+  }
+  // Every pair of the whole search is found by the share of one of its segments.
+  EXPECT_EQ(std::vector<CandidatePair>(found.begin(), found.end()), whole);
+  EXPECT_GT(across, 0u) << "no pair across two shares: the layout tests nothing";
+}
+
+TEST(Share, ANewShareSearchesTheLastBoxesAgainAndKeepsTheMotionReference) {
+  const Layout l = random_layout(3000, 20, 2, 78u);
+  CandidateSearchOptions o{.margin = 0.1, .refresh_fraction = 0.5, .self_contact = true};
+  CandidateSearch search(l.segments, all_of_two_groups, o);
+  ASSERT_TRUE(search.update(l.boxes, l.radius));
+  const auto whole = search.candidates();
+  // Every box moved by 0.9 of the refresh threshold: not searched again.
+  std::vector<Eigen::AlignedBox3d> moved(l.boxes);
+  for (auto& b : moved)
+    b = translated(b, Eigen::Vector3d::Constant(0.9 * o.refresh_fraction * o.margin));
+  EXPECT_FALSE(search.update(moved, l.radius));
+  std::vector<char> own(l.segments.size());
+  for (std::size_t i = 0; i < own.size(); ++i)
+    own[i] = l.segments[i].curve % 2;
+  search.set_share(own);
+  // The share's pairs of the search made on the first boxes, and still no search for the motion.
+  EXPECT_EQ(search.candidates(), with_a_segment_in(whole, own));
+  ASSERT_EQ(search.searched_boxes().size(), l.boxes.size());
+  for (std::size_t i = 0; i < l.boxes.size(); ++i)
+    ASSERT_TRUE(search.searched_boxes()[i].isApprox(l.boxes[i], 0.0)) << "segment " << i;
+  EXPECT_FALSE(search.update(moved, l.radius));
+  EXPECT_EQ(search.statistics().searches, 2);
+  // Back to every segment (all flags, or none): the whole search again.
+  search.set_share(std::vector<char>(own.size(), 1));
+  EXPECT_EQ(search.candidates(), whole);
+  EXPECT_THROW(search.set_share(std::vector<char>(3, 1)), std::invalid_argument);
 }
 
 TEST(Inputs, BadInputsThrow) {

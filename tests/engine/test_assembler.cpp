@@ -445,6 +445,24 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
           charged += load[static_cast<std::size_t>(i)];
         EXPECT_EQ(charged, summaries[k].candidates) << "process " << k;
       }
+      // Found by the shares of its segments: each process's search lists the pairs with a
+      // segment in its share (CandidateSearch::set_share), so a pair across two shares is listed
+      // by both and one within a share by it alone. On 2 every pair couples the warp's share
+      // with the weft's; on 5 each share lists less than the whole search.
+      const int whole_search = whole->summary().searched;
+      ASSERT_EQ(whole_search, whole->candidates());
+      int searched = 0;
+      for (const ContactSummary& s : summaries) {
+        EXPECT_GE(s.searched, s.candidates);
+        EXPECT_LE(s.searched, whole_search);
+        if (ranks == 2)
+          EXPECT_EQ(s.searched, whole_search);
+        if (ranks == 5)
+          EXPECT_LT(s.searched, whole_search);
+        searched += s.searched;
+      }
+      EXPECT_GE(searched, whole_search);
+      EXPECT_LE(searched, 2 * whole_search);
       // Found once: every active pair on one process.
       const ContactSummary combined = combine_summaries(summaries);
       if (ranks == 2) {
