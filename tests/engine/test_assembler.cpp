@@ -5,6 +5,7 @@
 #include "engine/assembly/assembler.hpp"
 #include "engine/contact/contact_set.hpp"
 #include "engine/contact/contact_stage.hpp"
+#include "engine/contact/spline_contact_set.hpp"
 #include "engine/input/read_deck.hpp"
 #include "engine/model/partition.hpp"
 #include "engine/solver/simulation.hpp"
@@ -486,6 +487,48 @@ TEST(Partition, EveryContactPairIsFoundAndAssembledByExactlyOneProcess) {
       EXPECT_LE((K_sum - K_one).cwiseAbs().maxCoeff(), 1e-12 * K_one.cwiseAbs().maxCoeff());
     }
   }
+}
+
+TEST(Partition, AShareRestoresEverySavedPairAndRefusesPairsThatDoNotFitTheModel) {
+  // A process's share (its search lists the pairs with a segment in it: CandidateSearch::
+  // set_share) restores the whole snapshot every process saved (Simulation::rebalance, a
+  // restart), the run's figures as they stand, and keeps its own pairs from the next search on.
+  // Saved pairs outside its search are not checked against it, so they are checked against the
+  // model: a segment the model does not have, or pairs out of order, are refused with an error.
+  Model m = read_deck(std::filesystem::path(YARNSIM_SOURCE_DIR) / "examples" / "biaxial-k1.toml");
+  m.steps[0].end_time = 0.3;
+  Simulation sim(m);
+  sim.run();
+  const std::unique_ptr<ContactStage> whole = ContactStage::of(m);
+  ASSERT_EQ(whole->evaluate(sim.state(), true), "");
+  const SplineContactSet::Snapshot saved = whole->spline()->snapshot();
+  const NodePartition part = partition_all(m, 3)[1];
+  const auto share = [&] {
+    std::unique_ptr<ContactStage> stage = ContactStage::of(m);
+    stage->set_partition(part);
+    EXPECT_EQ(stage->evaluate(sim.state(), true), "");
+    return stage;
+  };
+  const std::unique_ptr<ContactStage> stage = share();
+  const int own = stage->local_summary().candidates;
+  ASSERT_LT(stage->local_summary().searched, whole->candidates());
+  stage->spline()->restore(saved);
+  EXPECT_EQ(stage->spline()->summary().candidates, whole->candidates());
+  EXPECT_EQ(stage->spline()->summary().active, whole->active());
+  ASSERT_EQ(stage->evaluate(sim.state(), true), "");
+  EXPECT_EQ(stage->local_summary().candidates, own);
+  // The last saved pair's segments are the model's last: beyond them, none.
+  const auto refused = [&](auto&& spoil) {
+    SplineContactSet::Snapshot bad = saved;
+    spoil(bad.pairs);
+    EXPECT_THROW(share()->spline()->restore(bad), std::invalid_argument);
+  };
+  refused([](auto& pairs) { pairs.back().key[2] = 1 << 30; });
+  refused([](auto& pairs) {
+    pairs.push_back(pairs.back());
+    pairs.back().key[0] += 1; // a definition the model does not have
+  });
+  refused([](auto& pairs) { std::swap(pairs.front(), pairs.back()); });
 }
 
 TEST(Partition, TheCutsBalanceTheElementsAndTheLoadOfTheNodes) {

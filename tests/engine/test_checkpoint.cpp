@@ -236,6 +236,19 @@ TEST_F(Checkpoint, DynamicFabricThroughTheFileGoesOnBitForBit) {
   Recorder restarted;
   Simulation(m, {}, stored.simulation).run(&restarted);
   expect_same_continuation(straight, k, restarted);
+  // A saved contact state that does not fit the saved search is refused with an error, not
+  // read out of bounds: a pair left out, a segment the model does not have, pairs out of order.
+  ASSERT_TRUE(stored.simulation.contact);
+  ASSERT_GE(stored.simulation.contact->pairs.size(), 2u);
+  const auto refused = [&](auto&& spoil) {
+    SimulationCheckpoint bad = stored.simulation;
+    spoil(bad.contact->pairs);
+    EXPECT_THROW(Simulation(m, {}, bad), std::invalid_argument);
+  };
+  refused([](auto& pairs) { pairs.pop_back(); });
+  refused([](auto& pairs) { pairs.back().key[2] = 1 << 30; });
+  refused([](auto& pairs) { pairs.front().key[0] = -1; });
+  refused([](auto& pairs) { std::swap(pairs[0], pairs[1]); });
 }
 
 TEST_F(Checkpoint, PictureFrameWithFrictionGoesOnBitForBit) {
@@ -416,10 +429,22 @@ TEST_F(Checkpoint, SurfaceContactFabricThroughTheFileGoesOnBitForBit) {
   Simulation(m, {}, straight.checkpoints[0]).run(&early);
   expect_same_continuation(straight, 0, early);
   expect_same_surface_checkpoints(straight, 0, early);
-  // A checkpoint without the surface contact's state does not fit the model.
+  // A checkpoint without the surface contact's state does not fit the model, nor one whose
+  // pairs do not fit the saved search (a pair left out, a segment the model does not have,
+  // pairs out of order).
   SimulationCheckpoint stripped = straight.checkpoints[k];
   stripped.surface_contact.reset();
   EXPECT_THROW(Simulation(m, {}, stripped), std::invalid_argument);
+  ASSERT_GE(straight.checkpoints[k].surface_contact->pairs.size(), 2u);
+  const auto refused = [&](auto&& spoil) {
+    SimulationCheckpoint bad = straight.checkpoints[k];
+    spoil(bad.surface_contact->pairs);
+    EXPECT_THROW(Simulation(m, {}, bad), std::invalid_argument);
+  };
+  refused([](auto& pairs) { pairs.pop_back(); });
+  refused([](auto& pairs) { pairs.back().key[2] = 1 << 30; });
+  refused([](auto& pairs) { pairs.front().key[0] = -1; });
+  refused([](auto& pairs) { std::swap(pairs[0], pairs[1]); });
 }
 
 TEST_F(Checkpoint,
