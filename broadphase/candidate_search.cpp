@@ -307,6 +307,7 @@ struct CandidateSearch::Impl {
       }
     }
   }
+
   /// Checks the inputs and measures the motion since the last search (0 before the first).
   Scan scan(std::span<const Eigen::AlignedBox3d> boxes, std::span<const double> radius) const {
     const bool measure = stats.searches > 0;

@@ -10,7 +10,8 @@
 //
 // The search is backed by FCL's dynamic AABB trees, one per contact group, each tree collided with
 // itself or another for every pair of groups that may touch; FCL stays inside
-// candidate_search.cpp.
+// candidate_search.cpp. A process of a run over several (MPI) searches its share alone
+// (set_share): its segments in the trees, every other segment's box queried against them.
 
 #include <Eigen/Geometry>
 

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <fmt/format.h>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -306,6 +307,39 @@ inline std::uint64_t fold_active_pair(std::uint64_t h, int definition, int first
   for (int v : {definition, first, second})
     h = (h ^ static_cast<std::uint64_t>(static_cast<std::uint32_t>(v))) * 0x100000001b3ull;
   return h;
+}
+
+/// Checks the pairs of a saved contact state (a checkpoint's, or every process's gathered)
+/// before they are restored: each pair's key (definition, first, second segment) within the
+/// model (`definitions` of them, `segments(k)` segments in definition k, first < second), the keys
+/// strictly increasing, and every candidate of the saved boxes' search (`searched`, sorted) among
+/// them; on one process (`whole`) the pairs are exactly those candidates, a process's share
+/// (ContactSet::set_owned) searches the pairs with a segment in it, a part of them. Throws
+/// std::invalid_argument naming the first that does not fit, `what` ("contact", "surface
+/// contact") leading its message.
+template <class Pair, class SegmentCount>
+void check_saved_pairs(const std::vector<Pair>& pairs,
+                       const std::vector<std::array<int, 3>>& searched, bool whole, int definitions,
+                       SegmentCount segments, const char* what) {
+  if (whole && searched.size() != pairs.size())
+    throw std::invalid_argument(
+        fmt::format("{} restart: the saved boxes give {} candidate pairs, the snapshot has {}",
+                    what, searched.size(), pairs.size()));
+  for (std::size_t w = 0; w < pairs.size(); ++w) {
+    const std::array<int, 3>& key = pairs[w].key;
+    if (key[0] < 0 || key[0] >= definitions || key[1] < 0 || key[1] >= key[2] ||
+        key[2] >= segments(key[0]) || (w > 0 && !(pairs[w - 1].key < key)))
+      throw std::invalid_argument(fmt::format(
+          "{} restart: saved pair {} ({}, {}, {}) does not fit the model or is out of order", what,
+          w, key[0], key[1], key[2]));
+  }
+  for (std::size_t c = 0, saved = 0; c < searched.size(); ++c) {
+    while (saved < pairs.size() && pairs[saved].key < searched[c])
+      ++saved;
+    if (saved >= pairs.size() || pairs[saved].key != searched[c] || (whole && saved != c))
+      throw std::invalid_argument(fmt::format(
+          "{} restart: candidate {} of the saved search differs from the snapshot's", what, c));
+  }
 }
 
 /// Links each candidate of a work list to its warm start: `work[i].warm` becomes the index of the

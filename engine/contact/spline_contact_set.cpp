@@ -922,33 +922,11 @@ void SplineContactSet::restore(const Snapshot& snapshot) {
     for (const broadphase::CandidatePair& p : d.search->candidates())
       searched.push_back({static_cast<int>(k), p.first, p.second});
   }
-  // One process: the saved search's candidates are the snapshot's pairs. A process's share
-  // (set_owned: its search holds the pairs with a segment in it) finds each of its candidates
-  // among the pairs of every process. Every saved pair is restored (the run's figures, points
-  // and snapshots as they stand: Simulation::share_contact_pairs); the next search's work list
-  // keeps this process's own.
-  if (!owned_ && searched.size() != snapshot.pairs.size())
-    throw std::invalid_argument(
-        fmt::format("contact restart: the saved boxes give {} candidate pairs, the snapshot has {}",
-                    searched.size(), snapshot.pairs.size()));
-  for (std::size_t w = 0; w < snapshot.pairs.size(); ++w) {
-    const Key& key = snapshot.pairs[w].key;
-    const int k = key[0];
-    if (k < 0 || k >= static_cast<int>(definitions_.size()) || key[1] < 0 || key[1] >= key[2] ||
-        key[2] >= static_cast<int>(definitions_[k]->spline.size()) ||
-        (w > 0 && !(snapshot.pairs[w - 1].key < key)))
-      throw std::invalid_argument(fmt::format(
-          "contact restart: saved pair {} ({}, {}, {}) does not fit the model or is out of order",
-          w, key[0], key[1], key[2]));
-  }
-  for (std::size_t c = 0, saved = 0; c < searched.size(); ++c) {
-    while (saved < snapshot.pairs.size() && snapshot.pairs[saved].key < searched[c])
-      ++saved;
-    if (saved >= snapshot.pairs.size() || snapshot.pairs[saved].key != searched[c] ||
-        (!owned_ && saved != c))
-      throw std::invalid_argument(fmt::format(
-          "contact restart: candidate {} of the saved search differs from the snapshot's", c));
-  }
+  // Every saved pair is restored (the run's figures, points and snapshots as they stand:
+  // Simulation::share_contact_pairs); the next search's work list keeps this process's own.
+  check_saved_pairs(
+      snapshot.pairs, searched, !owned_, static_cast<int>(definitions_.size()),
+      [&](int k) { return static_cast<int>(definitions_[k]->spline.size()); }, "contact");
   std::vector<Work> work;
   work.reserve(snapshot.pairs.size());
   for (std::size_t w = 0; w < snapshot.pairs.size(); ++w) {
