@@ -22,6 +22,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -135,6 +136,25 @@ void expect_same_continuation(const Recorder& straight, std::size_t k, const Rec
 
 /// The surface contact state after each increment of the restarted run equals the straight run's:
 /// the same searches (candidate versions, boxes), warm starts, candidates and pattern growth.
+/// A checkpoint whose contact state (`contact`: the spline or the surface contact's) has pairs
+/// that do not fit its saved search is refused with an error, not read out of bounds: a pair
+/// left out, a segment or definition the model does not have, pairs out of order.
+template <class Snapshot>
+void expect_spoiled_pairs_refused(const Model& m, const SimulationCheckpoint& checkpoint,
+                                  std::optional<Snapshot> SimulationCheckpoint::*contact) {
+  ASSERT_TRUE(checkpoint.*contact);
+  ASSERT_GE((checkpoint.*contact)->pairs.size(), 2u);
+  const auto refused = [&](auto&& spoil) {
+    SimulationCheckpoint bad = checkpoint;
+    spoil((bad.*contact)->pairs);
+    EXPECT_THROW(Simulation(m, {}, bad), std::invalid_argument);
+  };
+  refused([](auto& pairs) { pairs.pop_back(); });
+  refused([](auto& pairs) { pairs.back().key[2] = 1 << 30; });
+  refused([](auto& pairs) { pairs.front().key[0] = -1; });
+  refused([](auto& pairs) { std::swap(pairs[0], pairs[1]); });
+}
+
 void expect_same_surface_checkpoints(const Recorder& straight, std::size_t k,
                                      const Recorder& restarted) {
   ASSERT_EQ(restarted.checkpoints.size(), straight.checkpoints.size() - k - 1);
@@ -236,19 +256,8 @@ TEST_F(Checkpoint, DynamicFabricThroughTheFileGoesOnBitForBit) {
   Recorder restarted;
   Simulation(m, {}, stored.simulation).run(&restarted);
   expect_same_continuation(straight, k, restarted);
-  // A saved contact state that does not fit the saved search is refused with an error, not
-  // read out of bounds: a pair left out, a segment the model does not have, pairs out of order.
-  ASSERT_TRUE(stored.simulation.contact);
-  ASSERT_GE(stored.simulation.contact->pairs.size(), 2u);
-  const auto refused = [&](auto&& spoil) {
-    SimulationCheckpoint bad = stored.simulation;
-    spoil(bad.contact->pairs);
-    EXPECT_THROW(Simulation(m, {}, bad), std::invalid_argument);
-  };
-  refused([](auto& pairs) { pairs.pop_back(); });
-  refused([](auto& pairs) { pairs.back().key[2] = 1 << 30; });
-  refused([](auto& pairs) { pairs.front().key[0] = -1; });
-  refused([](auto& pairs) { std::swap(pairs[0], pairs[1]); });
+  // A saved contact state that does not fit the saved search is refused.
+  expect_spoiled_pairs_refused(m, stored.simulation, &SimulationCheckpoint::contact);
 }
 
 TEST_F(Checkpoint, PictureFrameWithFrictionGoesOnBitForBit) {
@@ -435,16 +444,7 @@ TEST_F(Checkpoint, SurfaceContactFabricThroughTheFileGoesOnBitForBit) {
   SimulationCheckpoint stripped = straight.checkpoints[k];
   stripped.surface_contact.reset();
   EXPECT_THROW(Simulation(m, {}, stripped), std::invalid_argument);
-  ASSERT_GE(straight.checkpoints[k].surface_contact->pairs.size(), 2u);
-  const auto refused = [&](auto&& spoil) {
-    SimulationCheckpoint bad = straight.checkpoints[k];
-    spoil(bad.surface_contact->pairs);
-    EXPECT_THROW(Simulation(m, {}, bad), std::invalid_argument);
-  };
-  refused([](auto& pairs) { pairs.pop_back(); });
-  refused([](auto& pairs) { pairs.back().key[2] = 1 << 30; });
-  refused([](auto& pairs) { pairs.front().key[0] = -1; });
-  refused([](auto& pairs) { std::swap(pairs[0], pairs[1]); });
+  expect_spoiled_pairs_refused(m, straight.checkpoints[k], &SimulationCheckpoint::surface_contact);
 }
 
 TEST_F(Checkpoint,
