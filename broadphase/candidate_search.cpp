@@ -259,24 +259,21 @@ struct CandidateSearch::Impl {
   void build_trees() {
     const int n = filter.size();
     const int g = filter.num_groups();
-    shapes.assign(n, nullptr);
-    objects.clear();
-    objects.resize(n);
     scope.clear();
     others.clear();
-    for (int i = 0; i < n; ++i) {
-      if (!in_share(i)) {
-        others.push_back(i);
-        continue;
-      }
-      scope.push_back(i);
-      shapes[i] = std::make_shared<fcl::Boxd>(0.0, 0.0, 0.0);
-      objects[i] = std::make_unique<fcl::CollisionObjectd>(shapes[i]);
-      objects[i]->setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(i)));
-    }
+    for (int i = 0; i < n; ++i)
+      (in_share(i) ? scope : others).push_back(i);
+    shapes.clear();
+    objects.clear();
+    shapes.reserve(scope.size());
+    objects.reserve(scope.size());
     members.assign(g, {});
-    for (const int i : scope)
-      members[filter.group(i)].push_back(objects[i].get());
+    for (const int i : scope) {
+      shapes.push_back(std::make_shared<fcl::Boxd>(0.0, 0.0, 0.0));
+      objects.push_back(std::make_unique<fcl::CollisionObjectd>(shapes.back()));
+      objects.back()->setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(i)));
+      members[filter.group(i)].push_back(objects.back().get());
+    }
     trees.clear();
     trees.resize(g);
     tree_pairs.clear();
@@ -346,18 +343,21 @@ struct CandidateSearch::Impl {
     searched_radius.assign(radius.begin(), radius.end());
     const int n = filter.size();
     const double margin = options.margin;
-    // Refit every object (the share's) to its inflated box (place).
     tbb::parallel_for(
         tbb::blocked_range<int>(0, n, grain_size), [&](const tbb::blocked_range<int>& range) {
           for (int i = range.begin(); i != range.end(); ++i) {
             contact_boxes[i] = Eigen::AlignedBox3d(boxes[i].min().array() - radius[i],
                                                    boxes[i].max().array() + radius[i]);
-            if (!objects[i]) {
-              continue;
-            }
-            place(*shapes[i], *objects[i], centre_half(boxes[i], radius[i], margin));
           }
         });
+    // Refit every object (the share's) to its inflated box (place).
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, scope.size(), grain_size),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                          const int i = scope[k];
+                          place(*shapes[k], *objects[k], centre_half(boxes[i], radius[i], margin));
+                        }
+                      });
     for (std::size_t g = 0; g < trees.size(); ++g) {
       if (!trees[g]) {
         continue;
@@ -423,7 +423,7 @@ struct CandidateSearch::Impl {
 
   PairFilter filter;
   CandidateSearchOptions options;
-  /// Per segment in the share (null outside it), its box, shared with its object.
+  /// Per segment in the share (scope's order), its box, shared with its object.
   std::vector<std::shared_ptr<fcl::Boxd>> shapes;
   std::vector<std::unique_ptr<fcl::CollisionObjectd>> objects; ///< user data: segment id
   std::vector<std::vector<fcl::CollisionObjectd*>> members;    ///< per group, its objects
