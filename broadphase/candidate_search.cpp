@@ -247,16 +247,16 @@ struct CandidateSearch::Impl {
        const CandidateSearchOptions& opts)
       : filter(std::move(segments), group_pairs, opts), options(opts) {
     contact_boxes.resize(filter.size());
-    build_trees();
   }
 
   bool in_share(int segment) const { return own.empty() || own[segment] != 0; }
 
   /// The FCL objects of the segments in the share (every segment without one), one tree per
   /// contact group that may touch some group: pairs between groups that may not touch (warp
-  /// with warp in a plain weave, say) are then never visited. The trees are filled at the next
-  /// search.
+  /// with warp in a plain weave, say) are then never visited. Built at the first search after
+  /// construction or a new share (a share set before the first search builds no other objects).
   void build_trees() {
+    built = true;
     const int n = filter.size();
     const int g = filter.num_groups();
     scope.clear();
@@ -341,6 +341,9 @@ struct CandidateSearch::Impl {
     const auto start = std::chrono::steady_clock::now();
     searched.assign(boxes.begin(), boxes.end());
     searched_radius.assign(radius.begin(), radius.end());
+    if (!built) {
+      build_trees();
+    }
     const int n = filter.size();
     const double margin = options.margin;
     tbb::parallel_for(
@@ -434,6 +437,7 @@ struct CandidateSearch::Impl {
   std::vector<char> own;
   std::vector<int> scope;  ///< the segments in the share, which have objects in the trees
   std::vector<int> others; ///< the segments outside it, queried against the trees
+  bool built = false;      ///< the objects and trees are the share's (build_trees)
   /// Per segment, its box inflated by the radius only at the last search, metres.
   std::vector<Eigen::AlignedBox3d> contact_boxes;
   std::vector<CandidatePair> pairs;          ///< the candidates
@@ -487,7 +491,7 @@ void CandidateSearch::set_share(std::vector<char> own) {
     return;
   }
   m.own = std::move(own);
-  m.build_trees();
+  m.built = false;
   // The last search again, on its own boxes: the candidates are the whole search's that the
   // share holds, and the motion test keeps its reference (searched where a whole search would).
   if (m.stats.searches > 0) {
