@@ -7,6 +7,7 @@
 #include "engine/output/serial_writer.hpp"
 #include "engine/run/check.hpp"
 #include "engine/solver/checkpoint.hpp"
+#include "engine/solver/distributed.hpp"
 #include "engine/solver/simulation.hpp"
 #include "engine/textile/biaxial.hpp"
 #include "engine/textile/shear_kinematics.hpp"
@@ -946,6 +947,13 @@ RunSummary run_model(const Model& model, const RunOptions& options) {
     mesh.contact_tubes.push_back({spline.nodes, spline.radius});
   if (sim.contact() && options.progress)
     fmt::print(stderr, "{}", initial_clearance_line(sim));
+  // A solver asked for that takes the whole tangent gives every process the same answers, but
+  // its factorisation, the largest cost of a large model, is not shared out.
+  if (distributed::size() > 1 && !sim.shares_factorisation())
+    fmt::print(stderr,
+               "linear solver {}: each of the {} processes factorises the whole tangent (mumps "
+               "and petsc share the factorisation out)\n",
+               sim.linear_solver_name(), distributed::size());
   const output::RunMetadata meta{options.deck_text, options.deck_path, kVersion, options.threads};
   output::ResultsFile results =
       restart ? output::ResultsFile(options.output_dir, mesh, meta,

@@ -1020,6 +1020,10 @@ void Simulation::gather_histories(bool everywhere) {
   }
 }
 
+bool Simulation::shares_factorisation() const {
+  return solver_->sums_partial_tangents();
+}
+
 std::string Simulation::rebalance() {
   if (!partition_ || !contact_ || contact_->candidates_version() == balanced_version_)
     return {};

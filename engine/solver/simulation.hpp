@@ -244,6 +244,10 @@ public:
   /// attempts': evaluated points besides the Newton iterations.
   int simplified_trials() const { return simplified_trials_; }
   const std::string& linear_solver_name() const { return solver_name_; }
+  /// Whether the linear solver shares the factorisation out over the processes of a run over
+  /// several (mumps, petsc: each hands in its own entries); lu, ldlt and ldlt-gmres factorise
+  /// the whole tangent on every process.
+  bool shares_factorisation() const;
   const StageTimes& stage_times() const { return stage_times_; }
 
   /// Reactions at constrained DOFs of the last converged increment, 6 x n_nodes (N, N m).

@@ -2,7 +2,8 @@
 # mpirun -np 1, 2 and 3 (oversubscribed) on the paper's 6 x 6 biaxial test and a 12 x 12 weave:
 # the same curves, monitor rows, positions and contact forces at every step as the one-process
 # run of the oneTBB path (`ldlt`), within 1e-10 relative, with the solver auto takes over MPI
-# (MUMPS's LDL^T) and with PETSc's (`petsc`); a friction run (MUMPS's LU, PETSc's), the surface
+# (MUMPS's LDL^T) and with PETSc's (`petsc`), and with UMFPACK's LU of the whole tangent on each
+# of 2 processes (`lu`, which says so); a friction run (MUMPS's LU, PETSc's), the surface
 # contact examples and a frictional run restarted on another number of processes within 1e-10 of
 # UMFPACK's; the explicit path: a one-yarn run bitwise on 2 processes, the paper's fabric on 2
 # and 3 processes within 1e-10, with friction stopped on 2 and restarted on 3, with surface
@@ -27,7 +28,7 @@ for deck in w6 w12; do
   "$yarnsim" run "$deck.toml" -o "$deck-ref" -q --linear-solver ldlt > "$deck-ref.log" 2>&1 ||
     { echo "FAIL $deck: the one-process run failed"; cat "$deck-ref.log"; fail=1; continue; }
   runs=("1 auto" "2 auto" "3 auto" "2 petsc")
-  [ "$deck" = w6 ] && runs+=("1 mumps" "1 petsc" "3 petsc")
+  [ "$deck" = w6 ] && runs+=("1 mumps" "1 petsc" "3 petsc" "2 lu")
   for r in "${runs[@]}"; do
     set -- $r
     out="$deck-np$1-$2"
@@ -38,6 +39,11 @@ for deck in w6 w12; do
       { echo "FAIL $out: not one start and one done line"; cat "$out.log"; fail=1; }
     if [ "$1" -gt 1 ]; then
       grep -q "$1 processes of" "$out.log" || { echo "FAIL $out: the processes are not named"; fail=1; }
+      # A solver that takes the whole tangent says that every process factorises all of it.
+      whole=0
+      [ "$2" = lu ] && whole=1
+      [ "$(grep -c "each of the $1 processes factorises the whole tangent" "$out.log")" -eq "$whole" ] ||
+        { echo "FAIL $out: the note on the factorisation over processes is wrong"; cat "$out.log"; fail=1; }
     fi
     "$python" "$compare" "$deck-ref" "$out" 1e-10 || { echo "FAIL $out: differs from the one-process run"; fail=1; }
   done
