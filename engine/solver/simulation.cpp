@@ -401,6 +401,10 @@ void Simulation::compute_inertia(const SolutionStep& step, const NewmarkCoeffici
   tbb::parallel_for(tbb::blocked_range<int>(0, n, 256), [&](const tbb::blocked_range<int>& range) {
     std::pair<double, double>& local = largest.local();
     for (int i = range.begin(); i != range.end(); ++i) {
+      // Over several processes each adds its own nodes' terms (evaluate), and the largest force
+      // and moment are taken over the processes there.
+      if (partition_ && !partition_->owns(i))
+        continue;
       const Eigen::Vector3d du = state_.x.col(i) - state_.x_n.col(i);
       const Eigen::Vector3d a = nm.a1 * du - nm.a2 * state_.v_n.col(i) - nm.a3 * state_.a_n.col(i);
       const Eigen::Vector3d v = nm.a4 * du + nm.a5 * state_.v_n.col(i) + nm.a6 * state_.a_n.col(i);
@@ -892,8 +896,9 @@ void Simulation::move_along(const Eigen::VectorXd& delta, double s) {
     mixed_.lambda += s;
     const std::vector<BeamReference>& refs = assembler_->references();
     tbb::parallel_for(std::size_t{0}, refs.size(), [&](std::size_t e) {
-      mixed_.resultants[e] =
-          beam_resultants_of_strains(refs[e], mixed_.strain[e] + mixed_.lambda * mixed_.rate[e]);
+      if (assembles_element(e))
+        mixed_.resultants[e] =
+            beam_resultants_of_strains(refs[e], mixed_.strain[e] + mixed_.lambda * mixed_.rate[e]);
     });
   }
 }
@@ -906,6 +911,8 @@ void Simulation::start_mixed_stresses(const Eigen::VectorXd& delta, bool from_co
   mixed_.rate.resize(n_elements);
   mixed_.resultants.resize(n_elements);
   tbb::parallel_for(std::size_t{0}, n_elements, [&](std::size_t e) {
+    if (!assembles_element(e))
+      return;
     const BeamNodalValues values = assembler_->nodal_values(state_, static_cast<int>(e));
     BeamNodalValues direction;
     const std::array<int, 3>& nodes = model_.elements[e].nodes;

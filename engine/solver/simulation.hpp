@@ -474,6 +474,12 @@ private:
   /// This process's share of the assembly over several processes (partition.hpp); none (every
   /// element, pair and node) in a one-process run. `shares_`: every process's, in rank order.
   std::optional<NodePartition> partition_;
+  /// Whether this process assembles element e (its first node is this process's: the beams'
+  /// assembly, Assembler::add_beams); every element on one process. Its mixed stresses are
+  /// computed here alone.
+  bool assembles_element(std::size_t e) const {
+    return !partition_ || partition_->owns(model_.elements[e].nodes[0]);
+  }
   std::vector<NodePartition> shares_;
   /// The contact candidates' version the partition was last balanced for (rebalance).
   int balanced_version_ = -1;
