@@ -495,6 +495,7 @@ void CandidateSearch::set_share(std::vector<char> own) {
   // The last search again, on its own boxes: the candidates are the whole search's that the
   // share holds, and the motion test keeps its reference (searched where a whole search would).
   if (m.stats.searches > 0) {
+    // Copies: search() writes its boxes into `searched` first.
     const std::vector<Eigen::AlignedBox3d> boxes = m.searched;
     const std::vector<double> radius = m.searched_radius;
     m.search(boxes, radius);

@@ -544,6 +544,19 @@ public:
   virtual std::vector<ContactPoint> points() const = 0;
 
 protected:
+  /// The share of a candidate search (broadphase::CandidateSearch::set_share) under set_owned:
+  /// per segment (`segments` of them), whether this process owns the node `node_of(s)` it gives
+  /// pair_owner_node (so that the share's search lists every pair this process owns); empty
+  /// without a share.
+  template <class NodeOf>
+  std::vector<char> share_flags(std::size_t segments, NodeOf node_of) const {
+    if (!owned_)
+      return {};
+    std::vector<char> own(segments);
+    for (std::size_t s = 0; s < segments; ++s)
+      own[s] = owned_->owns(node_of(static_cast<int>(s))) ? 1 : 0;
+    return own;
+  }
   /// This process's share (set_owned): none, every pair.
   std::optional<NodePartition> owned_;
   bool rebuild_work_ = false; ///< the work list must follow a new share

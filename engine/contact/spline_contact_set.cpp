@@ -183,9 +183,13 @@ contact::AllAngleOptions SplineContactSet::all_angle_of(const Definition& d, dou
   return all_angle;
 }
 
+int SplineContactSet::first_node(const Definition& d, int s) const {
+  return model_.splines[d.spline[s]].nodes[d.segment[s]];
+}
+
 int SplineContactSet::owner_node(const Definition& d, const broadphase::CandidatePair& p) const {
-  const auto n = nodes_of(d, p);
-  return pair_owner_node(d.spline[p.first], d.spline[p.second], n[0], n[3]);
+  return pair_owner_node(d.spline[p.first], d.spline[p.second], first_node(d, p.first),
+                         first_node(d, p.second));
 }
 
 bool SplineContactSet::owns(const Definition& d, const broadphase::CandidatePair& p) const {
@@ -195,18 +199,8 @@ bool SplineContactSet::owns(const Definition& d, const broadphase::CandidatePair
 void SplineContactSet::add_candidate_loads(std::vector<double>& per_node, double weight) const {
   for (const auto& d : definitions_)
     for (const broadphase::CandidatePair& p : d->search->candidates())
-      if (owns(*d, p))
-        per_node[static_cast<std::size_t>(owner_node(*d, p))] += weight;
-}
-
-std::vector<char> SplineContactSet::share_of(const Definition& d) const {
-  if (!owned_)
-    return {};
-  // The node a pair's owner is taken from on this segment's side (owner_node).
-  std::vector<char> own(d.spline.size());
-  for (std::size_t s = 0; s < own.size(); ++s)
-    own[s] = owned_->owns(model_.splines[d.spline[s]].nodes[d.segment[s]]) ? 1 : 0;
-  return own;
+      if (const int k = owner_node(*d, p); !owned_ || owned_->owns(k))
+        per_node[static_cast<std::size_t>(k)] += weight;
 }
 
 bool SplineContactSet::update_candidates(const State& state) {
@@ -214,7 +208,7 @@ bool SplineContactSet::update_candidates(const State& state) {
   bool changed = (work_.empty() && candidates_version_ == 0) || rebuild_work_;
   if (rebuild_work_) // a new share: each search holds the pairs it may own (set_owned)
     for (auto& d : definitions_)
-      d->search->set_share(share_of(*d));
+      d->search->set_share(share_flags(d->spline.size(), [&](int s) { return first_node(*d, s); }));
   rebuild_work_ = false;
   for (std::size_t k = 0; k < definitions_.size(); ++k) {
     Definition& d = *definitions_[k];

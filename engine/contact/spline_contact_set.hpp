@@ -269,9 +269,9 @@ private:
   double time_ = 0; ///< s, of the configurations projected (the compaction's time)
   /// How the point friction's force reaches the positions: set_explicit_path.
   contact::FrictionForce friction_force_ = contact::FrictionForce::AtContactPoints;
-  /// Per segment of `d`, whether the node owner_node takes on its side is this process's (the
-  /// share of its search: CandidateSearch::set_share); empty without a share (set_owned).
-  std::vector<char> share_of(const Definition& d) const;
+  /// The first node of segment s of `d`: the node pair_owner_node takes on its side
+  /// (owner_node), and so the share of the search (share_flags).
+  int first_node(const Definition& d, int s) const;
   /// The node whose process projects pair p of definition d over several (pair_owner_node), and
   /// whether that is this process (set_owned).
   int owner_node(const Definition& d, const broadphase::CandidatePair& p) const;

@@ -141,9 +141,13 @@ contact::SuperEllipticalCylinder SurfaceContactSet::cylinder(const Definition& d
   return {node(el.nodes[0]), node(el.nodes[2]), sections_[d.surface[s]], last, &previous};
 }
 
+int SurfaceContactSet::first_node(const Definition& d, int s) const {
+  return model_.elements[model_.surfaces[d.surface[s]].elements[d.position[s]]].nodes[0];
+}
+
 int SurfaceContactSet::owner_node(const Definition& d, const broadphase::CandidatePair& p) const {
-  const auto n = nodes_of(d, p);
-  return pair_owner_node(d.surface[p.first], d.surface[p.second], n[0], n[2]);
+  return pair_owner_node(d.surface[p.first], d.surface[p.second], first_node(d, p.first),
+                         first_node(d, p.second));
 }
 
 bool SurfaceContactSet::owns(const Definition& d, const broadphase::CandidatePair& p) const {
@@ -153,28 +157,16 @@ bool SurfaceContactSet::owns(const Definition& d, const broadphase::CandidatePai
 void SurfaceContactSet::add_candidate_loads(std::vector<double>& per_node, double weight) const {
   for (const auto& d : definitions_)
     for (const broadphase::CandidatePair& p : d->search->candidates())
-      if (owns(*d, p))
-        per_node[static_cast<std::size_t>(owner_node(*d, p))] += weight;
-}
-
-std::vector<char> SurfaceContactSet::share_of(const Definition& d) const {
-  if (!owned_)
-    return {};
-  // The node a pair's owner is taken from on this segment's side (owner_node).
-  std::vector<char> own(d.surface.size());
-  for (std::size_t s = 0; s < own.size(); ++s)
-    own[s] = owned_->owns(
-                 model_.elements[model_.surfaces[d.surface[s]].elements[d.position[s]]].nodes[0])
-                 ? 1
-                 : 0;
-  return own;
+      if (const int k = owner_node(*d, p); !owned_ || owned_->owns(k))
+        per_node[static_cast<std::size_t>(k)] += weight;
 }
 
 bool SurfaceContactSet::update_candidates(const State& state) {
   bool changed = (work_.empty() && candidates_version_ == 0) || rebuild_work_;
   if (rebuild_work_) // a new share: each search holds the pairs it may own (set_owned)
     for (auto& d : definitions_)
-      d->search->set_share(share_of(*d));
+      d->search->set_share(
+          share_flags(d->surface.size(), [&](int s) { return first_node(*d, s); }));
   rebuild_work_ = false;
   // The boxes hold the sections as they are oriented, and the end windows of the options
   // project() uses.

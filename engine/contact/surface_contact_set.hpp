@@ -189,9 +189,9 @@ private:
   std::vector<Twist> twist_;
   double dissipated_ = 0; ///< J, by friction over the committed increments
   int candidates_version_ = 0;
-  /// Per segment of `d`, whether the node owner_node takes on its side is this process's (the
-  /// share of its search: CandidateSearch::set_share); empty without a share (set_owned).
-  std::vector<char> share_of(const Definition& d) const;
+  /// The first node of segment s of `d`: the node pair_owner_node takes on its side
+  /// (owner_node), and so the share of the search (share_flags).
+  int first_node(const Definition& d, int s) const;
   /// The node whose process projects pair p of definition d over several (pair_owner_node), and
   /// whether that is this process (set_owned).
   int owner_node(const Definition& d, const broadphase::CandidatePair& p) const;
